@@ -1,0 +1,336 @@
+#include "firmware/can_node/node.h"
+
+#include <cstring>
+
+#include "firmware/common/endian.h"
+#include "firmware/crypto/sha256.h"
+
+#ifndef IMUFORGE_FW_VERSION
+#define IMUFORGE_FW_VERSION "0.0.0"
+#endif
+
+namespace imuforge::fw {
+namespace {
+
+using namespace imuforge::proto;
+
+std::size_t reply(std::uint8_t* resp, std::uint8_t cmd, std::uint8_t status) noexcept {
+  resp[0] = static_cast<std::uint8_t>(cmd | kResponseFlag);
+  resp[1] = status;
+  return 2;
+}
+
+std::uint8_t store_status(int e) noexcept {
+  switch (e) {
+    case kStoreOk: return kStOk;
+    case kStoreErrTooLarge: return kStTableTooLarge;
+    case kStoreErrNotStaged: return kStNotStaged;
+    case kStoreErrNoTable: return kStNoTable;
+    default: return kStFlashError;
+  }
+}
+
+void send_stream_frame(CanNode& n, std::uint8_t part, const std::uint8_t payload[8]) noexcept {
+  hal::CanFrame f;
+  f.id = stream_id(n.cfg.node_id, part, n.cfg.extended_ids);
+  f.extended = n.cfg.extended_ids;
+  f.len = 8;
+  std::memcpy(f.data, payload, 8);
+  const int rc = n.port->send(f);
+  if (rc == hal::kCanOk) {
+    ++n.counters.stream_frames_tx;
+    n.bus_off = false;
+    return;
+  }
+  ++n.counters.stream_frames_dropped;
+  if (rc == hal::kCanErrBusOff && !n.bus_off) {
+    n.bus_off = true;
+    ++n.counters.bus_off_events;
+  }
+}
+
+void emit_sample(CanNode& n, std::uint64_t t_us) noexcept {
+  hal::ImuRawSample s;
+  if (n.sensor->read(t_us, s) != hal::kSensorOk) {
+    // The sequence number still advances: the host then sees the sample as lost, which it is.
+    ++n.counters.sensor_errors;
+    ++n.seq;
+    return;
+  }
+  std::uint8_t p[8];
+  store_le16(p, n.seq);
+  if ((n.channels & kChAccel) != 0u) {
+    for (unsigned i = 0; i < 3; ++i) store_le16s(p + 2 + 2 * i, s.accel_counts[i]);
+    send_stream_frame(n, kPartAccel, p);
+  }
+  if ((n.channels & kChGyro) != 0u) {
+    for (unsigned i = 0; i < 3; ++i) store_le16s(p + 2 + 2 * i, s.gyro_counts[i]);
+    send_stream_frame(n, kPartGyro, p);
+  }
+  if ((n.channels & kChTemp) != 0u) {
+    store_le16s(p + 2, s.temp_cdegC);
+    store_le32(p + 4, static_cast<std::uint32_t>(t_us));
+    send_stream_frame(n, kPartTemp, p);
+  }
+  ++n.counters.samples_sent;
+  ++n.seq;
+}
+
+std::size_t cmd_identify(CanNode& n, std::uint8_t* r) noexcept {
+  std::size_t k = reply(r, kCmdIdentify, kStOk);
+  store_le64(r + k, n.cfg.serial);
+  k += 8;
+  std::memset(r + k, 0, 16);
+  const char* v = IMUFORGE_FW_VERSION;
+  for (std::size_t i = 0; i < 15u && v[i] != '\0'; ++i) r[k + i] = static_cast<std::uint8_t>(v[i]);
+  k += 16;
+  const StoreSlotInfo* a = store_active(n.store);
+  r[k++] = a != nullptr ? 1u : 0u;
+  store_le32(r + k, a != nullptr ? a->seq : 0u);
+  k += 4;
+  store_le32(r + k, a != nullptr ? a->crc : 0u);
+  k += 4;
+  store_le32(r + k, a != nullptr ? a->len : 0u);
+  k += 4;
+  r[k++] = n.cfg.node_id;
+  r[k++] = static_cast<std::uint8_t>((n.cfg.extended_ids ? 1u : 0u) | (n.cfg.key_provisioned ? 2u : 0u));
+  return k;
+}
+
+std::size_t cmd_status(CanNode& n, std::uint8_t* r, std::uint64_t now_us) noexcept {
+  std::size_t k = reply(r, kCmdStatus, kStOk);
+  const std::uint32_t v[11] = {static_cast<std::uint32_t>((now_us - n.boot_us) / 1000u),
+                               n.counters.samples_sent,
+                               n.counters.stream_frames_tx,
+                               n.counters.stream_frames_dropped,
+                               n.counters.bus_off_events,
+                               n.link.counters.rx_errors,
+                               n.link.counters.tx_errors,
+                               n.counters.commands_ok,
+                               n.counters.commands_rejected,
+                               n.counters.auth_failures,
+                               n.counters.boots};
+  for (std::uint32_t x : v) {
+    store_le32(r + k, x);
+    k += 4;
+  }
+  r[k++] = static_cast<std::uint8_t>(static_cast<std::int8_t>(n.store.active));
+  r[k++] = static_cast<std::uint8_t>(static_cast<std::int8_t>(n.store.staged));
+  r[k++] = n.streaming ? 1u : 0u;
+  r[k++] = n.channels;
+  store_le16(r + k, n.rate_hz);
+  k += 2;
+  return k;
+}
+
+std::size_t cmd_write(CanNode& n, const std::uint8_t* q, std::size_t len, std::uint8_t* r) noexcept {
+  if (len < kWriteHeaderBytes + 1u) return reply(r, kCmdWriteTable, kStBadLength);
+  const std::size_t table_len = len - kWriteHeaderBytes;
+  if (table_len > kMaxTableBytes) return reply(r, kCmdWriteTable, kStTableTooLarge);
+  if (!n.cfg.key_provisioned) return reply(r, kCmdWriteTable, kStNoKey);
+  const std::uint32_t seq = load_le32(q + 1);
+  const std::uint8_t* tag = q + 5;
+  const std::uint8_t* table = q + kWriteHeaderBytes;
+  std::uint8_t want[kTagBytes];
+  node_table_tag(n.cfg.key, n.cfg.serial, seq, table, table_len, want);
+  if (!ct_equal(want, tag, kTagBytes)) {
+    ++n.counters.auth_failures;
+    return reply(r, kCmdWriteTable, kStAuthFailed);
+  }
+  const StoreSlotInfo* a = store_active(n.store);
+  if (a != nullptr && seq <= a->seq) return reply(r, kCmdWriteTable, kStReplay);
+  const std::uint8_t chk = node_table_check(table, table_len, n.cfg.serial, seq, n.parsed);
+  if (chk != kStOk) return reply(r, kCmdWriteTable, chk);
+  const int e = store_write(n.store, table, static_cast<std::uint32_t>(table_len), seq);
+  if (e != kStoreOk) return reply(r, kCmdWriteTable, store_status(e));
+  std::size_t k = reply(r, kCmdWriteTable, kStOk);
+  store_le32(r + k, n.store.slot[n.store.staged].crc);
+  return k + 4;
+}
+
+std::size_t cmd_commit(CanNode& n, const std::uint8_t* q, std::size_t len, std::uint8_t* r) noexcept {
+  if (len != 5u) return reply(r, kCmdCommit, kStBadLength);
+  const std::uint32_t seq = load_le32(q + 1);
+  const StoreSlotInfo* a = store_active(n.store);
+  if (a != nullptr && seq <= a->seq) return reply(r, kCmdCommit, kStReplay);
+  const int e = store_commit(n.store, seq);
+  if (e != kStoreOk) return reply(r, kCmdCommit, store_status(e));
+  a = store_active(n.store);
+  std::size_t k = reply(r, kCmdCommit, kStOk);
+  store_le32(r + k, a->seq);
+  store_le32(r + k + 4, a->crc);
+  return k + 8;
+}
+
+std::size_t cmd_read(CanNode& n, std::uint8_t* r, std::size_t cap) noexcept {
+  const StoreSlotInfo* a = store_active(n.store);
+  if (a == nullptr) return reply(r, kCmdReadTable, kStNoTable);
+  if (a->len + 6u > cap) return reply(r, kCmdReadTable, kStTableTooLarge);
+  std::size_t k = reply(r, kCmdReadTable, kStOk);
+  store_le32(r + k, a->seq);
+  k += 4;
+  const int e = store_read(n.store, 0, r + k, a->len);
+  if (e != kStoreOk) return reply(r, kCmdReadTable, store_status(e));
+  return k + a->len;
+}
+
+}  // namespace
+
+void node_table_tag(const std::uint8_t key[kKeyBytes], std::uint64_t serial, std::uint32_t seq,
+                    const std::uint8_t* table, std::size_t len, std::uint8_t tag[kTagBytes]) noexcept {
+  HmacSha256 m;
+  hmac_sha256_init(m, key, kKeyBytes);
+  std::uint8_t hdr[16];
+  std::memcpy(hdr, kTagDomain, 4);
+  store_le64(hdr + 4, serial);
+  store_le32(hdr + 12, seq);
+  hmac_sha256_update(m, hdr, sizeof hdr);
+  hmac_sha256_update(m, table, len);
+  hmac_sha256_final(m, tag);
+}
+
+void node_init(CanNode& n, const NodeConfig& cfg, hal::CanPort& port, hal::Flash& flash,
+               hal::Sensor& sensor) noexcept {
+  const NodeCounters keep = n.counters;
+  n.cfg = cfg;
+  if (n.cfg.node_id > kMaxNodeId) n.cfg.node_id = kMaxNodeId;
+  n.port = &port;
+  n.flash = &flash;
+  n.sensor = &sensor;
+  store_init(n.store, flash, cfg.store);
+  IsotpConfig ic;
+  ic.rx_id = request_id(n.cfg.node_id, n.cfg.extended_ids);
+  ic.tx_id = response_id(n.cfg.node_id, n.cfg.extended_ids);
+  ic.extended = n.cfg.extended_ids;
+  ic.block_size = cfg.isotp_block_size;
+  ic.st_min_raw = cfg.isotp_st_min_raw;
+  isotp_init(n.link, ic, port, n.rx_buf, sizeof n.rx_buf, n.tx_buf, sizeof n.tx_buf);
+  n.streaming = false;
+  n.rate_hz = 0;
+  n.channels = 0;
+  n.period_us = 0;
+  n.next_sample_us = 0;
+  n.seq = 0;
+  n.bus_off = false;
+  n.boot_us = 0;
+  n.reboot_pending = false;
+  n.reboot_now = false;
+  n.mount_result = 0;
+  n.counters = keep;
+}
+
+int node_boot(CanNode& n, std::uint64_t now_us) noexcept {
+  n.boot_us = now_us;
+  ++n.counters.boots;
+  n.mount_result = store_mount(n.store);
+  return n.mount_result;
+}
+
+std::size_t node_handle_command(CanNode& n, const std::uint8_t* q, std::size_t len, std::uint8_t* r,
+                                std::size_t cap, std::uint64_t now_us) noexcept {
+  if (len == 0u) return reply(r, 0, kStBadLength);
+  const std::uint8_t cmd = q[0];
+  std::size_t k;
+  switch (cmd) {
+    case kCmdIdentify:
+      k = len == 1u ? cmd_identify(n, r) : reply(r, cmd, kStBadLength);
+      break;
+    case kCmdStreamStart: {
+      if (len != 4u) {
+        k = reply(r, cmd, kStBadLength);
+        break;
+      }
+      const std::uint16_t rate = load_le16(q + 1);
+      const std::uint8_t ch = q[3];
+      if (rate < kMinRateHz || rate > kMaxRateHz || ch == 0u || (ch & ~kChAll) != 0u) {
+        k = reply(r, cmd, kStBadArgument);
+        break;
+      }
+      n.rate_hz = rate;
+      n.channels = ch;
+      n.period_us = 1000000u / rate;
+      n.next_sample_us = now_us;
+      n.streaming = true;
+      k = reply(r, cmd, kStOk);
+      break;
+    }
+    case kCmdStreamStop:
+      if (len != 1u) {
+        k = reply(r, cmd, kStBadLength);
+        break;
+      }
+      n.streaming = false;
+      k = reply(r, cmd, kStOk);
+      store_le32(r + k, n.counters.samples_sent);
+      k += 4;
+      break;
+    case kCmdReadTable:
+      k = len == 1u ? cmd_read(n, r, cap) : reply(r, cmd, kStBadLength);
+      break;
+    case kCmdWriteTable:
+      k = cmd_write(n, q, len, r);
+      break;
+    case kCmdCommit:
+      k = cmd_commit(n, q, len, r);
+      break;
+    case kCmdReboot:
+      if (len != 1u) {
+        k = reply(r, cmd, kStBadLength);
+        break;
+      }
+      n.reboot_pending = true;
+      n.streaming = false;
+      k = reply(r, cmd, kStOk);
+      break;
+    case kCmdStatus:
+      k = len == 1u ? cmd_status(n, r, now_us) : reply(r, cmd, kStBadLength);
+      break;
+    default:
+      k = reply(r, cmd, kStUnknownCommand);
+      break;
+  }
+  if (r[1] == kStOk) {
+    ++n.counters.commands_ok;
+  } else {
+    ++n.counters.commands_rejected;
+  }
+  return k;
+}
+
+void node_poll(CanNode& n, std::uint64_t now_us) noexcept {
+  // Drain the receive queue (bounded: a flooded bus cannot starve the stream).
+  for (unsigned i = 0; i < 64u; ++i) {
+    hal::CanFrame f;
+    if (n.port->receive(f) != hal::kCanOk) break;
+    (void)isotp_on_frame(n.link, f, now_us);
+    if (isotp_rx_ready(n.link) && !isotp_tx_busy(n.link)) {
+      const std::size_t k = node_handle_command(n, n.link.rx_buf, n.link.rx_len, n.resp, sizeof n.resp, now_us);
+      isotp_rx_release(n.link);
+      (void)isotp_send(n.link, n.resp, k, now_us);
+    }
+  }
+  if (isotp_rx_ready(n.link) && !isotp_tx_busy(n.link)) {
+    const std::size_t k = node_handle_command(n, n.link.rx_buf, n.link.rx_len, n.resp, sizeof n.resp, now_us);
+    isotp_rx_release(n.link);
+    (void)isotp_send(n.link, n.resp, k, now_us);
+  }
+  (void)isotp_poll(n.link, now_us);
+  if (n.reboot_pending && !isotp_tx_busy(n.link)) n.reboot_now = true;
+
+  if (n.streaming && n.period_us > 0u) {
+    // Catch up at most a few samples after a stall; beyond that the samples are skipped (the counter
+    // still advances, so the host counts them as lost).
+    unsigned burst = 0;
+    while (now_us >= n.next_sample_us) {
+      if (burst < 4u) {
+        emit_sample(n, n.next_sample_us);
+        ++burst;
+      } else {
+        ++n.seq;
+      }
+      n.next_sample_us += n.period_us;
+    }
+  }
+}
+
+}  // namespace imuforge::fw

@@ -1,0 +1,494 @@
+#include "hal/linux/linux_can.h"
+
+#include <dirent.h>
+#include <fcntl.h>
+#include <linux/can.h>
+#include <linux/can/isotp.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <arpa/inet.h>
+
+#include <cctype>
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+
+namespace imuforge::hal {
+namespace {
+
+std::string sys_error(const std::string& what) { return what + ": " + std::strerror(errno); }
+
+// The on-wire layout of a classic frame, identical to struct can_frame.
+void encode(const CanFrame& f, std::uint8_t out[16]) {
+  std::uint32_t id = f.id | (f.extended ? CAN_EFF_FLAG : 0u);
+  std::memset(out, 0, 16);
+  std::memcpy(out, &id, 4);
+  out[4] = f.len;
+  std::memcpy(out + 8, f.data, 8);
+}
+
+bool decode(const std::uint8_t* in, std::size_t n, CanFrame* f) {
+  if (n != 16) return false;
+  std::uint32_t id;
+  std::memcpy(&id, in, 4);
+  if ((id & (CAN_RTR_FLAG | CAN_ERR_FLAG)) != 0u) return false;
+  f->extended = (id & CAN_EFF_FLAG) != 0u;
+  f->id = f->extended ? (id & CAN_EFF_MASK) : (id & CAN_SFF_MASK);
+  f->len = in[4];
+  std::memcpy(f->data, in + 8, 8);
+  return can_frame_valid(*f);
+}
+
+std::int64_t now_ms() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// ---- virtual bus -------------------------------------------------------------------------------------
+class VirtualPort final : public LinuxCanPort {
+ public:
+  ~VirtualPort() override {
+    if (!announce_.empty()) ::unlink(announce_.c_str());
+    if (fd_ >= 0) ::close(fd_);
+  }
+
+  bool open(const std::string& name, std::string* err) {
+    const char* root = std::getenv("IMUFORGE_VCAN_DIR");
+    std::string base = root != nullptr && *root != '\0' ? root : "/tmp/imuforge-vcan";
+    if (::mkdir(base.c_str(), 01777) != 0 && errno != EEXIST) {
+      *err = sys_error("virtual bus: mkdir " + base);
+      return false;
+    }
+    dir_ = base + "/" + name;
+    if (::mkdir(dir_.c_str(), 01777) != 0 && errno != EEXIST) {
+      *err = sys_error("virtual bus: mkdir " + dir_);
+      return false;
+    }
+    fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (fd_ < 0) {
+      *err = sys_error("virtual bus: socket");
+      return false;
+    }
+    int rcv = 4 * 1024 * 1024;
+    if (::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcv, sizeof rcv) != 0) {
+      *err = sys_error("virtual bus: SO_RCVBUF");
+      return false;
+    }
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    a.sin_port = 0;
+    if (::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+      *err = sys_error("virtual bus: bind 127.0.0.1");
+      return false;
+    }
+    socklen_t al = sizeof a;
+    if (::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &al) != 0) {
+      *err = sys_error("virtual bus: getsockname");
+      return false;
+    }
+    port_ = ntohs(a.sin_port);
+    announce_ = dir_ + "/" + std::to_string(port_);
+    std::ofstream f(announce_);
+    f << ::getpid() << "\n";
+    f.close();
+    if (!f) {
+      *err = "virtual bus: cannot write " + announce_;
+      announce_.clear();
+      return false;
+    }
+    refresh(true);
+    return true;
+  }
+
+  int fd() const noexcept override { return fd_; }
+
+  int send(const CanFrame& frame) noexcept override {
+    if (fd_ < 0) return kCanErrClosed;
+    if (!can_frame_valid(frame)) return kCanErrArg;
+    refresh(false);
+    std::uint8_t buf[16];
+    encode(frame, buf);
+    for (const sockaddr_in& p : peers_) {
+      const ssize_t n = ::sendto(fd_, buf, sizeof buf, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&p), sizeof p);
+      if (n == static_cast<ssize_t>(sizeof buf)) continue;
+      if (n < 0 && (errno == EAGAIN || errno == ENOBUFS || errno == ECONNREFUSED)) {
+        ++tx_dropped_;  // like a receiving controller's overrun: the sender does not see it
+        continue;
+      }
+      error_ = sys_error("virtual bus: sendto");
+      return kCanErrIo;
+    }
+    return kCanOk;
+  }
+
+  int receive(CanFrame& frame) noexcept override {
+    if (fd_ < 0) return kCanErrClosed;
+    for (;;) {
+      std::uint8_t buf[32];
+      const ssize_t n = ::recv(fd_, buf, sizeof buf, MSG_DONTWAIT);
+      if (n < 0) {
+        if (errno == EAGAIN || errno == EWOULDBLOCK) return kCanErrWouldBlock;
+        if (errno == EINTR || errno == ECONNREFUSED) continue;
+        error_ = sys_error("virtual bus: recv");
+        return kCanErrIo;
+      }
+      if (decode(buf, static_cast<std::size_t>(n), &frame)) return kCanOk;
+      // malformed datagram (not one of ours): dropped
+    }
+  }
+
+ private:
+  // Re-reads the peer directory when it changed (mtime) or every 500 ms; removes files of dead pids.
+  void refresh(bool force) {
+    struct stat st{};
+    const std::int64_t t = now_ms();
+    if (::stat(dir_.c_str(), &st) != 0) return;
+    const bool changed = st.st_mtim.tv_sec != mtime_.tv_sec || st.st_mtim.tv_nsec != mtime_.tv_nsec;
+    if (!force && !changed && t - last_refresh_ms_ < 500) return;
+    mtime_ = st.st_mtim;
+    last_refresh_ms_ = t;
+    std::vector<sockaddr_in> peers;
+    DIR* d = ::opendir(dir_.c_str());
+    if (d == nullptr) return;
+    while (dirent* e = ::readdir(d)) {
+      char* end = nullptr;
+      const unsigned long port = std::strtoul(e->d_name, &end, 10);
+      if (end == e->d_name || *end != '\0' || port == 0 || port > 65535) continue;
+      if (port == port_) continue;
+      const std::string path = dir_ + "/" + e->d_name;
+      std::ifstream f(path);
+      long pid = 0;
+      if (f >> pid && pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+        ::unlink(path.c_str());
+        continue;
+      }
+      sockaddr_in a{};
+      a.sin_family = AF_INET;
+      a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+      a.sin_port = htons(static_cast<std::uint16_t>(port));
+      peers.push_back(a);
+    }
+    ::closedir(d);
+    peers_.swap(peers);
+  }
+
+  int fd_ = -1;
+  std::uint16_t port_ = 0;
+  std::string dir_;
+  std::string announce_;
+  std::vector<sockaddr_in> peers_;
+  timespec mtime_{};
+  std::int64_t last_refresh_ms_ = 0;
+};
+
+// ---- SocketCAN raw -------------------------------------------------------------------------------------
+class SocketCanPort final : public LinuxCanPort {
+ public:
+  ~SocketCanPort() override {
+    if (fd_ >= 0) ::close(fd_);
+  }
+
+  bool open(const std::string& ifname, bool want_fd, std::string* err) {
+    if (ifname.empty() || ifname.size() >= IFNAMSIZ) {
+      *err = "socketcan: bad interface name '" + ifname + "'";
+      return false;
+    }
+    fd_ = ::socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
+    if (fd_ < 0) {
+      *err = sys_error("socketcan: socket(PF_CAN, SOCK_RAW, CAN_RAW)");
+      return false;
+    }
+    ifreq ifr{};
+    std::strncpy(ifr.ifr_name, ifname.c_str(), IFNAMSIZ - 1);
+    if (::ioctl(fd_, SIOCGIFINDEX, &ifr) != 0) {
+      *err = sys_error("socketcan: SIOCGIFINDEX " + ifname);
+      return false;
+    }
+    const int ifindex = ifr.ifr_ifindex;
+    if (::ioctl(fd_, SIOCGIFMTU, &ifr) != 0) {
+      *err = sys_error("socketcan: SIOCGIFMTU " + ifname);
+      return false;
+    }
+    if (want_fd && ifr.ifr_mtu == static_cast<int>(CANFD_MTU)) {
+      const int on = 1;
+      if (::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof on) != 0) {
+        *err = sys_error("socketcan: CAN_RAW_FD_FRAMES");
+        return false;
+      }
+    }
+    int snd = 256 * 1024;
+    if (::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &snd, sizeof snd) != 0) {
+      *err = sys_error("socketcan: SO_SNDBUF");
+      return false;
+    }
+    int rcv = 4 * 1024 * 1024;
+    if (::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcv, sizeof rcv) != 0) {
+      *err = sys_error("socketcan: SO_RCVBUF");
+      return false;
+    }
+    sockaddr_can addr{};
+    addr.can_family = AF_CAN;
+    addr.can_ifindex = ifindex;
+    if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+      *err = sys_error("socketcan: bind " + ifname);
+      return false;
+    }
+    const int fl = ::fcntl(fd_, F_GETFL);
+    if (fl < 0 || ::fcntl(fd_, F_SETFL, fl | O_NONBLOCK) != 0) {
+      *err = sys_error("socketcan: O_NONBLOCK");
+      return false;
+    }
+    return true;
+  }
+
+  int fd() const noexcept override { return fd_; }
+
+  int send(const CanFrame& frame) noexcept override {
+    if (fd_ < 0) return kCanErrClosed;
+    if (!can_frame_valid(frame)) return kCanErrArg;
+    can_frame cf{};
+    cf.can_id = frame.id | (frame.extended ? CAN_EFF_FLAG : 0u);
+    cf.len = frame.len;
+    std::memcpy(cf.data, frame.data, 8);
+    // A full socket/qdisc queue is normal at high rates: wait up to 2 ms for room once, as a CAN
+    // controller's TX mailbox would, then report it to the caller.
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      const ssize_t n = ::write(fd_, &cf, sizeof cf);
+      if (n == static_cast<ssize_t>(sizeof cf)) return kCanOk;
+      if (n >= 0) {
+        error_ = "socketcan: short write";
+        return kCanErrIo;
+      }
+      if (errno == ENETDOWN) return kCanErrBusOff;
+      if (errno != EAGAIN && errno != ENOBUFS && errno != EINTR) {
+        error_ = sys_error("socketcan: write");
+        return kCanErrIo;
+      }
+      pollfd p{fd_, POLLOUT, 0};
+      (void)::poll(&p, 1, 2);
+    }
+    ++tx_dropped_;
+    return kCanErrWouldBlock;
+  }
+
+  int receive(CanFrame& frame) noexcept override {
+    if (fd_ < 0) return kCanErrClosed;
+    for (;;) {
+      canfd_frame cf{};
+      const ssize_t n = ::read(fd_, &cf, sizeof cf);
+      if (n < 0) {
+        if (errno == EAGAIN || errno == EWOULDBLOCK) return kCanErrWouldBlock;
+        if (errno == EINTR) continue;
+        error_ = sys_error("socketcan: read");
+        return kCanErrIo;
+      }
+      if (n != static_cast<ssize_t>(CAN_MTU)) continue;  // FD frames are not used by the protocol
+      if ((cf.can_id & (CAN_RTR_FLAG | CAN_ERR_FLAG)) != 0u) continue;
+      frame.extended = (cf.can_id & CAN_EFF_FLAG) != 0u;
+      frame.id = frame.extended ? (cf.can_id & CAN_EFF_MASK) : (cf.can_id & CAN_SFF_MASK);
+      frame.len = cf.len > 8 ? 8 : cf.len;
+      std::memcpy(frame.data, cf.data, 8);
+      return kCanOk;
+    }
+  }
+
+ private:
+  int fd_ = -1;
+};
+
+}  // namespace
+
+int LinuxCanPort::receive_wait(CanFrame& frame, int timeout_ms) noexcept {
+  int rc = receive(frame);
+  if (rc != kCanErrWouldBlock) return rc;
+  pollfd p{fd(), POLLIN, 0};
+  const int pr = ::poll(&p, 1, timeout_ms);
+  if (pr < 0 && errno != EINTR) {
+    error_ = sys_error("poll");
+    return kCanErrIo;
+  }
+  if (pr <= 0) return kCanErrWouldBlock;
+  return receive(frame);
+}
+
+bool parse_bus_spec(const std::string& spec, BusSpec* out, std::string* err) {
+  const auto colon = spec.find(':');
+  if (colon == std::string::npos || colon + 1 >= spec.size()) {
+    *err = "bad bus spec '" + spec + "': expected virtual:<name> or socketcan:<ifname>";
+    return false;
+  }
+  const std::string kind = spec.substr(0, colon);
+  const std::string name = spec.substr(colon + 1);
+  for (char c : name) {
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) {
+      *err = "bad bus spec '" + spec + "': name may hold only letters, digits, '_', '-', '.'";
+      return false;
+    }
+  }
+  if (kind == "virtual") {
+    out->kind = BusSpec::Kind::kVirtual;
+  } else if (kind == "socketcan") {
+    out->kind = BusSpec::Kind::kSocketCan;
+  } else {
+    *err = "bad bus spec '" + spec + "': unknown kind '" + kind + "' (virtual, socketcan)";
+    return false;
+  }
+  out->name = name;
+  return true;
+}
+
+std::unique_ptr<LinuxCanPort> open_can_port(const std::string& spec, std::string* err, bool want_fd) {
+  BusSpec bs;
+  if (!parse_bus_spec(spec, &bs, err)) return nullptr;
+  if (bs.kind == BusSpec::Kind::kVirtual) {
+    auto p = std::make_unique<VirtualPort>();
+    if (!p->open(bs.name, err)) return nullptr;
+    return p;
+  }
+  auto p = std::make_unique<SocketCanPort>();
+  if (!p->open(bs.name, want_fd, err)) return nullptr;
+  return p;
+}
+
+bool set_can_filter(LinuxCanPort& port, const std::vector<std::uint32_t>& ids, bool extended, std::string* err) {
+  if (dynamic_cast<SocketCanPort*>(&port) == nullptr) return true;
+  std::vector<can_filter> f;
+  for (std::uint32_t id : ids) {
+    can_filter x{};
+    x.can_id = id | (extended ? CAN_EFF_FLAG : 0u);
+    x.can_mask = (extended ? CAN_EFF_MASK : CAN_SFF_MASK) | CAN_EFF_FLAG | CAN_RTR_FLAG;
+    f.push_back(x);
+  }
+  if (::setsockopt(port.fd(), SOL_CAN_RAW, CAN_RAW_FILTER, f.data(),
+                   static_cast<socklen_t>(f.size() * sizeof(can_filter))) != 0) {
+    *err = sys_error("socketcan: CAN_RAW_FILTER");
+    return false;
+  }
+  return true;
+}
+
+// ---- kernel ISO-TP -----------------------------------------------------------------------------------
+KernelIsotp::~KernelIsotp() { close(); }
+
+void KernelIsotp::close() {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+}
+
+bool KernelIsotp::open(const std::string& ifname, std::uint32_t tx_id, std::uint32_t rx_id, bool extended,
+                       std::uint8_t bs, std::uint8_t st_min_raw, std::string* err) {
+  close();
+  if (ifname.empty() || ifname.size() >= IFNAMSIZ) {
+    *err = "isotp: bad interface name '" + ifname + "'";
+    return false;
+  }
+  fd_ = ::socket(PF_CAN, SOCK_DGRAM | SOCK_CLOEXEC, CAN_ISOTP);
+  if (fd_ < 0) {
+    *err = sys_error("isotp: socket(PF_CAN, SOCK_DGRAM, CAN_ISOTP) (is can-isotp loaded?)");
+    return false;
+  }
+  can_isotp_options opts{};
+  opts.flags = CAN_ISOTP_TX_PADDING | CAN_ISOTP_WAIT_TX_DONE;
+  opts.txpad_content = CAN_ISOTP_DEFAULT_PAD_CONTENT;
+  opts.rxpad_content = CAN_ISOTP_DEFAULT_PAD_CONTENT;
+  opts.frame_txtime = CAN_ISOTP_DEFAULT_FRAME_TXTIME;
+  if (::setsockopt(fd_, SOL_CAN_ISOTP, CAN_ISOTP_OPTS, &opts, sizeof opts) != 0) {
+    *err = sys_error("isotp: CAN_ISOTP_OPTS");
+    close();
+    return false;
+  }
+  can_isotp_fc_options fc{};
+  fc.bs = bs;
+  fc.stmin = st_min_raw;
+  fc.wftmax = 0;
+  if (::setsockopt(fd_, SOL_CAN_ISOTP, CAN_ISOTP_RECV_FC, &fc, sizeof fc) != 0) {
+    *err = sys_error("isotp: CAN_ISOTP_RECV_FC");
+    close();
+    return false;
+  }
+  ifreq ifr{};
+  std::strncpy(ifr.ifr_name, ifname.c_str(), IFNAMSIZ - 1);
+  if (::ioctl(fd_, SIOCGIFINDEX, &ifr) != 0) {
+    *err = sys_error("isotp: SIOCGIFINDEX " + ifname);
+    close();
+    return false;
+  }
+  sockaddr_can addr{};
+  addr.can_family = AF_CAN;
+  addr.can_ifindex = ifr.ifr_ifindex;
+  addr.can_addr.tp.tx_id = tx_id | (extended ? CAN_EFF_FLAG : 0u);
+  addr.can_addr.tp.rx_id = rx_id | (extended ? CAN_EFF_FLAG : 0u);
+  if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    *err = sys_error("isotp: bind " + ifname);
+    close();
+    return false;
+  }
+  return true;
+}
+
+bool KernelIsotp::send(const std::uint8_t* data, std::size_t len, std::string* err) {
+  if (fd_ < 0) {
+    *err = "isotp: not open";
+    return false;
+  }
+  for (;;) {
+    const ssize_t n = ::write(fd_, data, len);
+    if (n == static_cast<ssize_t>(len)) return true;
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      // ECOMM: the kernel's N_Bs timer expired (no flow control from the node); EMSGSIZE: too long.
+      *err = sys_error("isotp: write");
+    } else {
+      *err = "isotp: short write";
+    }
+    return false;
+  }
+}
+
+bool KernelIsotp::recv(std::vector<std::uint8_t>* out, int timeout_ms, std::string* err) {
+  if (fd_ < 0) {
+    *err = "isotp: not open";
+    return false;
+  }
+  const std::int64_t deadline = now_ms() + timeout_ms;
+  for (;;) {
+    const std::int64_t left = deadline - now_ms();
+    if (left <= 0) {
+      *err = "timeout";
+      return false;
+    }
+    pollfd p{fd_, POLLIN, 0};
+    const int pr = ::poll(&p, 1, static_cast<int>(left));
+    if (pr < 0) {
+      if (errno == EINTR) continue;
+      *err = sys_error("isotp: poll");
+      return false;
+    }
+    if (pr == 0) {
+      *err = "timeout";
+      return false;
+    }
+    out->resize(8200);
+    const ssize_t n = ::read(fd_, out->data(), out->size());
+    if (n < 0) {
+      if (errno == EINTR || errno == EAGAIN) continue;
+      // ECOMM / EILSEQ / EBADMSG: the kernel aborted a reception (N_Cr timeout, wrong SN); report it
+      *err = sys_error("isotp: read");
+      return false;
+    }
+    out->resize(static_cast<std::size_t>(n));
+    return true;
+  }
+}
+
+}  // namespace imuforge::hal

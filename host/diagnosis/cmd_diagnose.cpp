@@ -1,0 +1,151 @@
+// `imuforge diagnose`: where a model departs from real data, which catalog effect explains it, and how far
+// the held-out gap shrinks (docs/diagnosis.md).
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "host/app/command.h"
+#include "host/diagnosis/diagnose.h"
+#include "host/diagnosis/sources.h"
+#include "host/model/sensor_model.h"
+
+namespace {
+
+using namespace imuforge;
+
+int run_diagnose(int argc, char** argv) {
+  CLI::App app{"Sim-to-real gap diagnosis: where the residual lies, which unmodelled catalog effect explains it, "
+               "and how far the held-out gap shrinks (docs/diagnosis.md)",
+               argv[0]};
+  std::string log_path, model_path, sim_path, out_dir, mode = "auto", cv = "auto", sensor_path;
+  diagnosis::Options opt;
+  app.add_option("--log", log_path, "log to diagnose (log v1, CSV or binary)")->required();
+  app.add_option("--model", model_path, "model spec JSON in use (docs/formats.md), a cal.json with a \"model\", or 'basic'")->required();
+  app.add_option("--sim", sim_path, "simulation log of the same campaign: its static Allan curve is the claimed noise, "
+                                    "and it supplies references the real log lacks");
+  app.add_option("--sensor", sensor_path, "sensor model JSON: its white_noise densities are the claimed noise");
+  app.add_option("--out", out_dir, "output folder (diagnosis.json, report.html)")->required();
+  app.add_option("--mode", mode, "fixture | reference-free | auto (reference-free when the log has no reference)")
+      ->check(CLI::IsMember({"auto", "fixture", "reference-free"}));
+  app.add_option("--cv", opt.cv, "withholding: segment (K-fold by segment) | plateau (leave-one-plateau-out) | auto")
+      ->check(CLI::IsMember({"auto", "segment", "plateau"}));
+  app.add_option("--folds", opt.folds, "K for K-fold by segment")->check(CLI::Range(2, 100));
+  app.add_option("--alpha", opt.alpha, "family-wise significance level (Bonferroni across candidates)")->check(CLI::Range(1e-12, 0.5));
+  app.add_option("--max-steps", opt.max_steps, "greedy forward-selection steps")->check(CLI::Range(0, 50));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? app::kExitOk : app::kExitUsage;
+  }
+
+  try {
+    diagnosis::BaseModel base;
+    if (model_path == "basic") {
+      base = diagnosis::basic_model();
+    } else {
+      std::ifstream f(model_path);
+      if (!f) {
+        std::fprintf(stderr, "imuforge diagnose: cannot open model '%s'\n", model_path.c_str());
+        return app::kExitFailed;
+      }
+      nlohmann::json j;
+      try {
+        j = nlohmann::json::parse(f);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "imuforge diagnose: %s: not valid JSON: %s\n", model_path.c_str(), e.what());
+        return app::kExitFailed;
+      }
+      if (j.is_object() && j.contains("model") && j["model"].is_object()) j = j["model"];  // a cal.json
+      try {
+        base = diagnosis::base_model_from_spec(model::model_spec_from_json(j));
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "imuforge diagnose: %s: %s\n", model_path.c_str(), e.what());
+        return app::kExitFailed;
+      }
+    }
+    if (!sensor_path.empty()) {
+      model::SensorModel sm = model::load_sensor_model(sensor_path);
+      const char* ax[6] = {"accel.white_noise.x", "accel.white_noise.y", "accel.white_noise.z",
+                           "gyro.white_noise.x",  "gyro.white_noise.y",  "gyro.white_noise.z"};
+      const auto eff = sm.effective_params();
+      for (int a = 0; a < 6; ++a) {
+        const double v = eff.get(ax[a]);
+        if (v > 0) opt.claimed_N[static_cast<std::size_t>(a)] = v;
+      }
+    }
+
+    diagnosis::LogSource real(log_path);
+    std::unique_ptr<diagnosis::LogSource> sim;
+    std::unique_ptr<diagnosis::PairedSource> paired;
+    diagnosis::SampleSource* src = &real;
+    if (!sim_path.empty()) {
+      sim = std::make_unique<diagnosis::LogSource>(sim_path);
+      opt.sim_allan = diagnosis::static_allan(*sim, opt);
+      paired = std::make_unique<diagnosis::PairedSource>(real, *sim);
+      src = paired.get();
+    }
+    // Reference-free when asked, or when no row carries a reference.
+    bool any_ref = false;
+    {
+      src->rewind();
+      diagnosis::Sample s;
+      while (src->next(s))
+        if (s.has_ref) {
+          any_ref = true;
+          break;
+        }
+    }
+    std::unique_ptr<diagnosis::ReferenceFreeSource> rf;
+    if (mode == "reference-free" || (mode == "auto" && !any_ref)) {
+      rf = std::make_unique<diagnosis::ReferenceFreeSource>(*src, real.meta().gravity_mps2);
+      src = rf.get();
+      std::printf("reference-free: %d static poses (%.0f s); gravity-magnitude RMS over poses %.4g -> %.4g m/s^2\n",
+                  rf->info().poses, rf->info().static_s, rf->info().accel_rms_before, rf->info().accel_rms_after);
+    } else if (mode == "fixture" && !any_ref) {
+      std::fprintf(stderr, "imuforge diagnose: %s has no reference columns; use --mode reference-free or --sim\n", log_path.c_str());
+      return app::kExitFailed;
+    }
+
+    diagnosis::DiagnosisResult r = diagnosis::diagnose(*src, base, opt);
+    if (rf) r.warnings.push_back("reference-free mode: references are pseudo-references from the gravity direction of each static pose; "
+                                 "errors along a pose's own direction and all rate-dependent effects are invisible");
+    std::error_code ec;
+    std::filesystem::create_directories(out_dir, ec);
+    if (ec) {
+      std::fprintf(stderr, "imuforge diagnose: cannot create '%s': %s\n", out_dir.c_str(), ec.message().c_str());
+      return app::kExitFailed;
+    }
+    nlohmann::json j = diagnosis::to_json(r);
+    j["inputs"] = {{"log", log_path}, {"model", model_path}, {"sim", sim_path}, {"mode", rf ? "reference-free" : "fixture"}};
+    {
+      std::ofstream o(out_dir + "/diagnosis.json");
+      o << j.dump(2) << "\n";
+      if (!o) {
+        std::fprintf(stderr, "imuforge diagnose: cannot write %s/diagnosis.json\n", out_dir.c_str());
+        return app::kExitFailed;
+      }
+    }
+    {
+      std::ofstream o(out_dir + "/report.html");
+      o << diagnosis::report_html(r);
+      if (!o) {
+        std::fprintf(stderr, "imuforge diagnose: cannot write %s/report.html\n", out_dir.c_str());
+        return app::kExitFailed;
+      }
+    }
+    std::fputs(diagnosis::summary_text(r).c_str(), stdout);
+    std::printf("wrote %s/diagnosis.json and %s/report.html\n", out_dir.c_str(), out_dir.c_str());
+    return app::kExitOk;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "imuforge diagnose: %s\n", e.what());
+    return app::kExitFailed;
+  }
+}
+
+}  // namespace
+
+IMUFORGE_COMMAND(diagnose, "sim-to-real gap: where, which unmodelled effect, how far it shrinks (held-out)", run_diagnose);

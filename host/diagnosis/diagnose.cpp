@@ -1,0 +1,1032 @@
+#include "host/diagnosis/diagnose.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <set>
+#include <sstream>
+
+#include "host/model/measure.h"
+
+namespace imuforge::diagnosis {
+
+using model::Effect;
+using model::ParamId;
+using model::Sensor;
+
+const char* axis_name(int a) {
+  static const char* kNames[kNumAxes] = {"accel.x", "accel.y", "accel.z", "gyro.x", "gyro.y", "gyro.z"};
+  return (a >= 0 && a < kNumAxes) ? kNames[a] : "?";
+}
+
+namespace {
+
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Deterministic catalog parameters of one sensor, in catalog order.
+std::vector<ParamId> sensor_params(Sensor s) {
+  std::vector<ParamId> ids;
+  for (const auto& p : model::params())
+    if (p.sensor == s && p.deterministic) ids.push_back(p.id);
+  return ids;
+}
+
+std::string effect_key(Sensor s, Effect e) {
+  return std::string(model::sensor_name(s)) + "." + model::effect_info(e).name;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Pass 0: duration, rate, and a 0.1 s binned temperature series for Ṫ.
+struct Pass0 {
+  long long n = 0, n_ref = 0;
+  double t_first = 0, t_last = 0, fs = 0;
+  double bin_s = 0.1;
+  std::vector<double> Tbin;  // NaN where no temperature
+  std::vector<double> Tdot;  // °C/s per bin
+  double tdot_at(double t) const {
+    if (Tdot.empty()) return 0.0;
+    long i = static_cast<long>(std::floor((t - t_first) / bin_s));
+    i = std::clamp<long>(i, 0, static_cast<long>(Tdot.size()) - 1);
+    return Tdot[static_cast<std::size_t>(i)];
+  }
+};
+
+Pass0 run_pass0(SampleSource& src, const Options& opt) {
+  Pass0 p;
+  src.rewind();
+  Sample s;
+  std::vector<double> sum, cnt;
+  bool first = true;
+  double prev_t = 0;
+  while (src.next(s)) {
+    if (!std::isfinite(s.t_s)) throw DiagnosisError("sample " + std::to_string(p.n) + ": time is not finite");
+    if (first) {
+      p.t_first = s.t_s;
+      first = false;
+    } else if (s.t_s < prev_t) {
+      throw DiagnosisError("sample " + std::to_string(p.n) + ": time goes backwards (" + std::to_string(s.t_s) +
+                           " s after " + std::to_string(prev_t) + " s)");
+    }
+    prev_t = s.t_s;
+    ++p.n;
+    if (s.has_ref) ++p.n_ref;
+    if (std::isfinite(s.temp_C)) {
+      const std::size_t i = static_cast<std::size_t>((s.t_s - p.t_first) / p.bin_s);
+      if (i >= sum.size()) {
+        if (i > 100000000) throw DiagnosisError("log spans an implausible time range");
+        sum.resize(i + 1, 0.0);
+        cnt.resize(i + 1, 0.0);
+      }
+      sum[i] += s.temp_C;
+      cnt[i] += 1.0;
+    }
+  }
+  if (p.n < 2) throw DiagnosisError("log has fewer than 2 samples");
+  p.t_last = prev_t;
+  const double dur = p.t_last - p.t_first;
+  if (!(dur > 0)) throw DiagnosisError("log has zero duration");
+  p.fs = static_cast<double>(p.n - 1) / dur;
+  if (!sum.empty()) {
+    p.Tbin.assign(sum.size(), kNaN);
+    for (std::size_t i = 0; i < sum.size(); ++i)
+      if (cnt[i] > 0) p.Tbin[i] = sum[i] / cnt[i];
+    // Centred difference over ±window (docs/error-model.md, "Temperature Ṫ"), one-sided at the ends.
+    const long w = std::max<long>(1, std::lround(opt.dTdt_window_s / p.bin_s));
+    const long nb = static_cast<long>(p.Tbin.size());
+    p.Tdot.assign(p.Tbin.size(), 0.0);
+    for (long i = 0; i < nb; ++i) {
+      long a = std::max<long>(0, i - w), b = std::min<long>(nb - 1, i + w);
+      while (a < i && !std::isfinite(p.Tbin[static_cast<std::size_t>(a)])) ++a;
+      while (b > i && !std::isfinite(p.Tbin[static_cast<std::size_t>(b)])) --b;
+      if (b > a && std::isfinite(p.Tbin[static_cast<std::size_t>(a)]) && std::isfinite(p.Tbin[static_cast<std::size_t>(b)]))
+        p.Tdot[static_cast<std::size_t>(i)] =
+            (p.Tbin[static_cast<std::size_t>(b)] - p.Tbin[static_cast<std::size_t>(a)]) / (static_cast<double>(b - a) * p.bin_s);
+    }
+  }
+  return p;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Pass 1: blocks.
+struct Block {
+  int segment = -1, unit = 0, fold = 0;
+  double t0 = 0, t1 = 0;
+  long n = 0;
+  Eigen::MatrixXd J[2];  // mean regressors, 3 × n_params(sensor)
+  double z[kNumAxes] = {};
+  // mean features
+  double t = 0, T = kNaN, Tdot = 0, d = 0, f[3] = {}, w[3] = {}, absw = 0;
+  bool is_static = false;
+  double v[kNumAxes] = {};  // variance of the block mean per axis
+};
+
+struct BlockAcc {
+  bool open = false;
+  Block b;
+  long nT = 0;
+  double sT = 0;
+  double f0[3] = {}, w0[3] = {}, T0 = kNaN;
+  double maxw = 0, fmin[3] = {}, fmax[3] = {}, Tmin = 1e300, Tmax = -1e300;
+  std::array<std::vector<double>, kNumAxes> series;
+  std::array<double, kNumAxes> bin_sum{};
+  long bin_n = 0;
+};
+
+struct Pass1 {
+  std::vector<Block> blocks;
+  std::array<AllanAccumulator, kNumAxes> allan;
+  std::array<double, kNumAxes> dz2{};
+  long long ndz = 0;
+  long long n_used = 0;
+  int n_units = 0;
+};
+
+Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const std::vector<ParamId> ids[2],
+                bool want_regressors) {
+  Pass1 out;
+  const double dur = p0.t_last - p0.t_first;
+  const double min_block_s = std::max(2.0 / p0.fs, dur / std::max(1, opt.max_blocks));
+  const long long max_bins = 1LL << 21;
+  const long m0 = std::max<long long>(1, (p0.n + max_bins - 1) / max_bins);
+  for (auto& a : out.allan) a.set_tau0(static_cast<double>(m0) / p0.fs);
+  const int np[2] = {static_cast<int>(ids[0].size()), static_cast<int>(ids[1].size())};
+  Eigen::Matrix<double, 3, Eigen::Dynamic> J[2];
+  J[0].resize(3, np[0]);
+  J[1].resize(3, np[1]);
+
+  model::HysteresisTracker hyst(opt.hysteresis_threshold_C);
+  BlockAcc acc;
+  int unit = -1, last_seg = -2;
+  double last_ref_t = -1e300;
+  bool last_had_ref = false;
+
+  auto close_block = [&]() {
+    if (!acc.open) return;
+    Block& b = acc.b;
+    const double n = static_cast<double>(b.n);
+    if (want_regressors)
+      for (int s = 0; s < 2; ++s) b.J[s] /= n;
+    for (int a = 0; a < kNumAxes; ++a) b.z[a] /= n;
+    b.t /= n;
+    b.Tdot /= n;
+    b.d /= n;
+    b.absw /= n;
+    for (int k = 0; k < 3; ++k) {
+      b.f[k] /= n;
+      b.w[k] /= n;
+    }
+    b.T = acc.nT > 0 ? acc.sT / static_cast<double>(acc.nT) : kNaN;
+    double frange = 0;
+    for (int k = 0; k < 3; ++k) frange = std::max(frange, acc.fmax[k] - acc.fmin[k]);
+    const double Trange = acc.nT > 0 ? acc.Tmax - acc.Tmin : 0.0;
+    b.is_static = acc.maxw < 0.01 && frange < 0.05 && Trange < opt.block_temp_tol_C && b.n >= 8;
+    if (b.is_static)
+      for (int a = 0; a < kNumAxes; ++a) out.allan[static_cast<std::size_t>(a)].add_series(acc.series[static_cast<std::size_t>(a)]);
+    out.blocks.push_back(std::move(b));
+    acc = BlockAcc{};
+  };
+
+  // One-sample lookahead for the input derivatives (size effect, timing).
+  Sample prev, cur, nxt;
+  bool have_prev = false, have_cur = false, have_next = false;
+  src.rewind();
+  have_cur = src.next(cur);
+  if (have_cur) have_next = src.next(nxt);
+  while (have_cur) {
+    const double d = hyst.update(cur.temp_C);
+    if (cur.has_ref) {
+      // Derivatives from neighbours that also carry a reference.
+      model::MeasureInput in;
+      double ta = cur.t_s, tb = cur.t_s;
+      const double *fa = cur.f, *fb = cur.f, *wa = cur.w, *wb = cur.w;
+      if (have_prev && prev.has_ref && cur.t_s - prev.t_s < 5.0 / p0.fs) { ta = prev.t_s; fa = prev.f; wa = prev.w; }
+      if (have_next && nxt.has_ref && nxt.t_s - cur.t_s < 5.0 / p0.fs) { tb = nxt.t_s; fb = nxt.f; wb = nxt.w; }
+      for (int k = 0; k < 3; ++k) {
+        in.f[k] = cur.f[k];
+        in.w[k] = cur.w[k];
+        if (tb > ta) {
+          in.fdot[k] = (fb[k] - fa[k]) / (tb - ta);
+          in.wdot[k] = (wb[k] - wa[k]) / (tb - ta);
+        }
+      }
+      const bool hasT = std::isfinite(cur.temp_C);
+      in.T_C = hasT ? cur.temp_C : opt.T_ref_C;
+      in.Tdot_C_s = hasT ? p0.tdot_at(cur.t_s) : 0.0;
+      in.d = d;
+      in.t_s = cur.t_s - p0.t_first;
+
+      // Block cutting.
+      if (cur.segment != last_seg || !last_had_ref || cur.t_s - last_ref_t > 5.0 / p0.fs) ++unit;
+      bool cut = !acc.open || acc.b.unit != unit;
+      if (!cut) {
+        const double bd = cur.t_s - acc.b.t0;
+        if (bd >= opt.block_max_s) cut = true;
+        else if (bd >= min_block_s) {
+          for (int k = 0; k < 3; ++k)
+            if (std::fabs(cur.f[k] - acc.f0[k]) > opt.block_f_tol || std::fabs(cur.w[k] - acc.w0[k]) > opt.block_w_tol) cut = true;
+          if (hasT && std::isfinite(acc.T0) && std::fabs(cur.temp_C - acc.T0) > opt.block_temp_tol_C) cut = true;
+        }
+      }
+      if (cut) {
+        close_block();
+        acc.open = true;
+        acc.b.segment = cur.segment;
+        acc.b.unit = unit;
+        acc.b.t0 = cur.t_s;
+        if (want_regressors) {
+          acc.b.J[0] = Eigen::MatrixXd::Zero(3, np[0]);
+          acc.b.J[1] = Eigen::MatrixXd::Zero(3, np[1]);
+        }
+        for (int k = 0; k < 3; ++k) {
+          acc.f0[k] = acc.fmin[k] = acc.fmax[k] = cur.f[k];
+          acc.w0[k] = cur.w[k];
+        }
+        acc.T0 = cur.temp_C;
+      }
+      Block& b = acc.b;
+      if (want_regressors) {
+        for (int s = 0; s < 2; ++s) {
+          model::regressors(static_cast<Sensor>(s), ids[s], in, opt.T_ref_C, J[s]);
+          b.J[s] += J[s];
+        }
+      }
+      double z[kNumAxes];
+      for (int a = 0; a < kNumAxes; ++a) {
+        z[a] = cur.y[a] - (a < 3 ? cur.f : cur.w)[a % 3];
+        b.z[a] += z[a];
+        acc.bin_sum[static_cast<std::size_t>(a)] += z[a];
+      }
+      if (++acc.bin_n == m0) {
+        for (int a = 0; a < kNumAxes; ++a) {
+          acc.series[static_cast<std::size_t>(a)].push_back(acc.bin_sum[static_cast<std::size_t>(a)] / static_cast<double>(m0));
+          acc.bin_sum[static_cast<std::size_t>(a)] = 0;
+        }
+        acc.bin_n = 0;
+      }
+      if (b.n > 0 && have_prev && prev.has_ref) {
+        for (int a = 0; a < kNumAxes; ++a) {
+          const double zp = prev.y[a] - (a < 3 ? prev.f : prev.w)[a % 3];
+          out.dz2[static_cast<std::size_t>(a)] += (z[a] - zp) * (z[a] - zp);
+        }
+        ++out.ndz;
+      }
+      ++b.n;
+      b.t1 = cur.t_s;
+      b.t += in.t_s;
+      b.Tdot += in.Tdot_C_s;
+      b.d += d;
+      double wn = 0;
+      for (int k = 0; k < 3; ++k) {
+        b.f[k] += cur.f[k];
+        b.w[k] += cur.w[k];
+        wn += cur.w[k] * cur.w[k];
+        acc.fmin[k] = std::min(acc.fmin[k], cur.f[k]);
+        acc.fmax[k] = std::max(acc.fmax[k], cur.f[k]);
+      }
+      wn = std::sqrt(wn);
+      b.absw += wn;
+      acc.maxw = std::max(acc.maxw, wn);
+      if (hasT) {
+        acc.sT += cur.temp_C;
+        ++acc.nT;
+        acc.Tmin = std::min(acc.Tmin, cur.temp_C);
+        acc.Tmax = std::max(acc.Tmax, cur.temp_C);
+      }
+      ++out.n_used;
+      last_ref_t = cur.t_s;
+    }
+    last_had_ref = cur.has_ref;
+    last_seg = cur.segment;
+    prev = cur;
+    have_prev = true;
+    cur = nxt;
+    have_cur = have_next;
+    if (have_cur) have_next = src.next(nxt);
+  }
+  close_block();
+  out.n_units = unit + 1;
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Block-level weighted least squares for one axis.
+struct AxisData {
+  int axis = 0;
+  Sensor sensor = Sensor::kAccel;
+  std::vector<ParamId> cols;   // parameters acting on this axis (catalog ids)
+  Eigen::MatrixXd X;           // B × P block-mean regressors
+  Eigen::VectorXd z, v;        // block means of y − u, and their variances
+  // Per fold and total: H = Σ x xᵀ/v, g = Σ x z / v, q = Σ z²/v, W = Σ 1/v, nb.
+  std::vector<Eigen::MatrixXd> Hk;
+  std::vector<Eigen::VectorXd> gk;
+  std::vector<double> qk, Wk;
+  std::vector<int> nbk;
+  Eigen::MatrixXd H;
+  Eigen::VectorXd g;
+  double q = 0, W = 0;
+  int nb = 0;
+};
+
+struct Fit {
+  std::vector<int> kept;     // indices into AxisData::cols
+  std::vector<int> dropped;
+  Eigen::VectorXd theta;     // over kept
+  Eigen::MatrixXd cov;       // over kept
+  double rss = 0;            // weighted RSS on the fitted data
+};
+
+// Fits columns `sel` (indices into cols, in priority order) on all folds except `skip` (−1 = none).
+// Columns whose information is (nearly) a combination of earlier ones are dropped, never solved.
+Fit fit_axis(const AxisData& ad, const std::vector<int>& sel, int skip) {
+  Fit f;
+  const int p = static_cast<int>(sel.size());
+  Eigen::MatrixXd H(p, p);
+  Eigen::VectorXd g(p);
+  double q = ad.q;
+  for (int i = 0; i < p; ++i) {
+    g[i] = ad.g[sel[static_cast<std::size_t>(i)]];
+    for (int j = 0; j < p; ++j) H(i, j) = ad.H(sel[static_cast<std::size_t>(i)], sel[static_cast<std::size_t>(j)]);
+  }
+  if (skip >= 0) {
+    const auto& Hs = ad.Hk[static_cast<std::size_t>(skip)];
+    const auto& gs = ad.gk[static_cast<std::size_t>(skip)];
+    for (int i = 0; i < p; ++i) {
+      g[i] -= gs[sel[static_cast<std::size_t>(i)]];
+      for (int j = 0; j < p; ++j) H(i, j) -= Hs(sel[static_cast<std::size_t>(i)], sel[static_cast<std::size_t>(j)]);
+    }
+    q -= ad.qk[static_cast<std::size_t>(skip)];
+  }
+  // Incremental Cholesky on the unit-diagonal scaled information, columns in priority order.
+  Eigen::VectorXd dscale(p);
+  for (int i = 0; i < p; ++i) dscale[i] = H(i, i) > 0 ? 1.0 / std::sqrt(H(i, i)) : 0.0;
+  Eigen::MatrixXd L = Eigen::MatrixXd::Zero(p, p);
+  std::vector<int> kept_local;
+  constexpr double kTol = 1e-9;
+  for (int c = 0; c < p; ++c) {
+    if (dscale[c] == 0.0) {
+      f.dropped.push_back(sel[static_cast<std::size_t>(c)]);
+      continue;
+    }
+    const int k = static_cast<int>(kept_local.size());
+    Eigen::VectorXd l(k);
+    for (int i = 0; i < k; ++i) {
+      const int ci = kept_local[static_cast<std::size_t>(i)];
+      double s = H(ci, c) * dscale[ci] * dscale[c];
+      for (int m = 0; m < i; ++m) s -= L(i, m) * l[m];
+      l[i] = s / L(i, i);
+    }
+    const double dd = 1.0 - l.squaredNorm();
+    if (dd < kTol) {
+      f.dropped.push_back(sel[static_cast<std::size_t>(c)]);
+      continue;
+    }
+    for (int i = 0; i < k; ++i) L(k, i) = l[i];
+    L(k, k) = std::sqrt(dd);
+    kept_local.push_back(c);
+  }
+  const int k = static_cast<int>(kept_local.size());
+  Eigen::MatrixXd Lk = L.topLeftCorner(k, k);
+  Eigen::VectorXd gs(k), ds(k);
+  for (int i = 0; i < k; ++i) {
+    ds[i] = dscale[kept_local[static_cast<std::size_t>(i)]];
+    gs[i] = g[kept_local[static_cast<std::size_t>(i)]] * ds[i];
+    f.kept.push_back(sel[static_cast<std::size_t>(kept_local[static_cast<std::size_t>(i)])]);
+  }
+  if (k > 0) {
+    auto tri = Lk.triangularView<Eigen::Lower>();
+    Eigen::VectorXd y = tri.solve(gs);
+    Eigen::VectorXd u = tri.transpose().solve(y);
+    f.theta = ds.asDiagonal() * u;
+    Eigen::MatrixXd Linv = tri.solve(Eigen::MatrixXd::Identity(k, k));
+    f.cov = ds.asDiagonal() * (Linv.transpose() * Linv) * ds.asDiagonal();
+    f.rss = q - gs.dot(u);
+  } else {
+    f.theta.resize(0);
+    f.cov.resize(0, 0);
+    f.rss = q;
+  }
+  return f;
+}
+
+// Held-out evaluation of a column set, aggregated from the fold statistics:
+//   Σ r²/v over held-out blocks = q_k − 2θᵀg_k + θᵀH_kθ,   its expectation = nb_k + tr(H_k Σ_train).
+struct HeldOut {
+  double chi2 = 0, expected = 0, W = 0;
+  int nb = 0;
+  double gap() const { return W > 0 ? (std::sqrt(std::max(chi2, 0.0)) - std::sqrt(expected)) / std::sqrt(W) : 0.0; }
+  double rms() const { return W > 0 ? std::sqrt(std::max(chi2, 0.0) / W) : 0.0; }
+  double floor() const { return W > 0 ? std::sqrt(expected / W) : 0.0; }
+};
+
+HeldOut heldout_axis(const AxisData& ad, const std::vector<int>& sel, int folds) {
+  HeldOut h;
+  for (int k = 0; k < folds; ++k) {
+    if (ad.nbk[static_cast<std::size_t>(k)] == 0) continue;
+    Fit f = fit_axis(ad, sel, k);
+    const int p = static_cast<int>(f.kept.size());
+    const auto& Hk = ad.Hk[static_cast<std::size_t>(k)];
+    const auto& gk = ad.gk[static_cast<std::size_t>(k)];
+    Eigen::MatrixXd Hs(p, p);
+    Eigen::VectorXd gs(p);
+    for (int i = 0; i < p; ++i) {
+      gs[i] = gk[f.kept[static_cast<std::size_t>(i)]];
+      for (int j = 0; j < p; ++j) Hs(i, j) = Hk(f.kept[static_cast<std::size_t>(i)], f.kept[static_cast<std::size_t>(j)]);
+    }
+    double c = ad.qk[static_cast<std::size_t>(k)];
+    if (p > 0) {
+      c += -2.0 * f.theta.dot(gs) + f.theta.dot(Hs * f.theta);
+      h.expected += (Hs * f.cov).trace();
+    }
+    h.chi2 += c;
+    h.expected += ad.nbk[static_cast<std::size_t>(k)];
+    h.W += ad.Wk[static_cast<std::size_t>(k)];
+    h.nb += ad.nbk[static_cast<std::size_t>(k)];
+  }
+  return h;
+}
+
+// Per-block held-out residuals and predicted variances (for cells and plots).
+void heldout_blocks(const AxisData& ad, const std::vector<int>& sel, int folds, const std::vector<Block>& blocks,
+                    std::vector<double>& r, std::vector<double>& pv) {
+  const int B = static_cast<int>(blocks.size());
+  r.assign(static_cast<std::size_t>(B), 0.0);
+  pv.assign(static_cast<std::size_t>(B), 1.0);
+  for (int k = 0; k < folds; ++k) {
+    if (ad.nbk[static_cast<std::size_t>(k)] == 0) continue;
+    Fit f = fit_axis(ad, sel, k);
+    const int p = static_cast<int>(f.kept.size());
+    for (int b = 0; b < B; ++b) {
+      if (blocks[static_cast<std::size_t>(b)].fold != k) continue;
+      Eigen::VectorXd x(p);
+      for (int i = 0; i < p; ++i) x[i] = ad.X(b, f.kept[static_cast<std::size_t>(i)]);
+      r[static_cast<std::size_t>(b)] = ad.z[b] - (p ? x.dot(f.theta) : 0.0);
+      pv[static_cast<std::size_t>(b)] = ad.v[b] + (p ? x.dot(f.cov * x) : 0.0);
+    }
+  }
+}
+
+std::vector<int> cols_for(const AxisData& ad, const std::set<ParamId>& model_ids, const std::vector<ParamId>& extra = {}) {
+  std::vector<int> sel;
+  // Model parameters first (priority in the rank check), the candidate after.
+  for (int i = 0; i < static_cast<int>(ad.cols.size()); ++i)
+    if (model_ids.count(ad.cols[static_cast<std::size_t>(i)])) sel.push_back(i);
+  for (ParamId id : extra)
+    for (int i = 0; i < static_cast<int>(ad.cols.size()); ++i)
+      if (ad.cols[static_cast<std::size_t>(i)] == id && !model_ids.count(id)) sel.push_back(i);
+  return sel;
+}
+
+double variable_of(const Block& b, const std::string& var, int axis) {
+  if (var == "temp_C") return b.T;
+  if (var == "dTdt_C_s") return b.Tdot;
+  if (var == "hysteresis_d") return b.d;
+  if (var == "rate_rad_s") return b.absw;
+  if (var == "time_s") return b.t;
+  if (var.rfind("f_", 0) == 0) return b.f[var[2] - 'x'];
+  if (var == "input") return (axis < 3 ? b.f : b.w)[axis % 3];
+  return b.t;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------
+BaseModel basic_model() {
+  BaseModel m;
+  for (Sensor s : {Sensor::kAccel, Sensor::kGyro})
+    for (Effect e : {Effect::kBias, Effect::kScale, Effect::kMisalign}) {
+      for (ParamId id : model::effect_params(s, e)) m.params.push_back(id);
+      m.effect_names.push_back(effect_key(s, e));
+    }
+  return m;
+}
+
+BaseModel base_model_from_spec(const model::ModelSpec& spec) {
+  BaseModel m;
+  m.T_ref_C = spec.T_ref_C;
+  m.params = spec.parameters();
+  for (const auto& e : spec.effects)
+    if (model::effect_info(e.effect).kind == model::EffectKind::kDeterministic) m.effect_names.push_back(effect_key(e.sensor, e.effect));
+  return m;
+}
+
+std::array<std::vector<AllanAccumulator::Point>, kNumAxes> static_allan(SampleSource& src, const Options& opt) {
+  Pass0 p0 = run_pass0(src, opt);
+  std::vector<ParamId> ids[2];
+  Pass1 p1 = run_pass1(src, p0, opt, ids, false);
+  std::array<std::vector<AllanAccumulator::Point>, kNumAxes> out;
+  for (int a = 0; a < kNumAxes; ++a) out[static_cast<std::size_t>(a)] = p1.allan[static_cast<std::size_t>(a)].points();
+  return out;
+}
+
+DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options& opt) {
+  DiagnosisResult R;
+  R.alpha = opt.alpha;
+  R.base_effects = base.effect_names;
+  R.claimed_N = opt.claimed_N;
+  R.sim_allan = opt.sim_allan;
+  Options o = opt;
+  o.T_ref_C = base.T_ref_C;
+
+  const Pass0 p0 = run_pass0(src, o);
+  R.n_samples = p0.n;
+  R.duration_s = p0.t_last - p0.t_first;
+  R.sample_rate_hz = p0.fs;
+  if (p0.n_ref == 0)
+    throw DiagnosisError("no sample carries a reference (f_ref/w_ref): use reference-free mode (--mode reference-free)");
+
+  std::vector<ParamId> ids[2] = {sensor_params(Sensor::kAccel), sensor_params(Sensor::kGyro)};
+  Pass1 p1 = run_pass1(src, p0, o, ids, true);
+  std::vector<Block>& blocks = p1.blocks;
+  R.n_used = p1.n_used;
+  R.n_blocks = static_cast<int>(blocks.size());
+  R.n_units = p1.n_units;
+
+  // ---- Noise: pooled Allan variance of static blocks, IEEE 952 terms per axis.
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto ua = static_cast<std::size_t>(a);
+    R.allan[ua] = p1.allan[ua].points();
+    if (R.allan[ua].size() >= 2) {
+      R.noise[ua] = fit_noise_terms(R.allan[ua]);
+    } else {
+      // No static record: white noise from first differences within blocks.
+      const double var = p1.ndz > 0 ? p1.dz2[ua] / (2.0 * static_cast<double>(p1.ndz)) : 0.0;
+      R.noise[ua].terms.N = std::sqrt(var / p0.fs);
+    }
+  }
+  bool any_static = false;
+  for (int a = 0; a < kNumAxes; ++a) any_static |= R.allan[static_cast<std::size_t>(a)].size() >= 2;
+  if (!any_static)
+    R.warnings.push_back("no static record long enough for an Allan deviation: the noise floor comes from sample-to-sample "
+                         "differences and ignores correlated noise, so significance may be overstated");
+  for (auto& b : blocks) {
+    const double tau = static_cast<double>(b.n) / p0.fs;
+    for (int a = 0; a < kNumAxes; ++a) {
+      double v = R.noise[static_cast<std::size_t>(a)].terms.avar(tau);
+      // Never below the white level implied by the data's sample-to-sample scatter (guards a degenerate fit).
+      if (p1.ndz > 0) v = std::max(v, 0.5 * p1.dz2[static_cast<std::size_t>(a)] / (2.0 * static_cast<double>(p1.ndz)) / static_cast<double>(b.n));
+      b.v[a] = std::max(v, 1e-300);
+    }
+  }
+
+  // ---- Folds: whole units (contiguous segments), or whole temperature plateaus.
+  std::vector<double> plateau_T;
+  {
+    std::vector<double> Ts;
+    for (const auto& b : blocks)
+      if (std::isfinite(b.T)) Ts.push_back(b.T);
+    std::sort(Ts.begin(), Ts.end());
+    for (double T : Ts)
+      if (plateau_T.empty() || T - plateau_T.back() > 2.0) plateau_T.push_back(T);
+  }
+  auto plateau_of = [&](double T) {
+    if (!std::isfinite(T) || plateau_T.empty()) return -1;
+    int best = 0;
+    for (int i = 0; i < static_cast<int>(plateau_T.size()); ++i)
+      if (T >= plateau_T[static_cast<std::size_t>(i)] - 1e-9) best = i;
+    return best;
+  };
+  int folds = o.folds;
+  R.cv_mode = "segment";
+  if (o.cv == "plateau" && plateau_T.size() >= 3) {
+    R.cv_mode = "plateau";
+    folds = static_cast<int>(plateau_T.size());
+    // A unit belongs to the plateau of its first block.
+    std::map<int, int> unit_fold;
+    for (auto& b : blocks) {
+      auto it = unit_fold.find(b.unit);
+      if (it == unit_fold.end()) it = unit_fold.emplace(b.unit, std::max(0, plateau_of(b.T))).first;
+      b.fold = it->second;
+    }
+  } else {
+    if (o.cv == "plateau") R.warnings.push_back("fewer than 3 temperature plateaus: K-fold by segment used instead");
+    folds = std::max(2, std::min(folds, p1.n_units));
+    for (auto& b : blocks) b.fold = b.unit % folds;
+  }
+  R.folds = folds;
+  if (p1.n_units < 2 * folds || blocks.size() < 10)
+    R.warnings.push_back("only " + std::to_string(p1.n_units) + " segments / " + std::to_string(blocks.size()) +
+                         " blocks: too short to tell reliably; held-out figures rest on very few withheld segments");
+
+  // ---- Per-axis design.
+  std::array<AxisData, kNumAxes> ax;
+  const int B = static_cast<int>(blocks.size());
+  for (int a = 0; a < kNumAxes; ++a) {
+    AxisData& ad = ax[static_cast<std::size_t>(a)];
+    ad.axis = a;
+    ad.sensor = a < 3 ? Sensor::kAccel : Sensor::kGyro;
+    const int s = a / 3, j = a % 3;
+    std::vector<int> src_cols;
+    for (int i = 0; i < static_cast<int>(ids[s].size()); ++i) {
+      const auto& pi = model::param_info(ids[s][static_cast<std::size_t>(i)]);
+      if (pi.j == j || pi.j < 0) {
+        ad.cols.push_back(pi.id);
+        src_cols.push_back(i);
+      }
+    }
+    const int P = static_cast<int>(ad.cols.size());
+    ad.X.resize(B, P);
+    ad.z.resize(B);
+    ad.v.resize(B);
+    ad.Hk.assign(static_cast<std::size_t>(folds), Eigen::MatrixXd::Zero(P, P));
+    ad.gk.assign(static_cast<std::size_t>(folds), Eigen::VectorXd::Zero(P));
+    ad.qk.assign(static_cast<std::size_t>(folds), 0.0);
+    ad.Wk.assign(static_cast<std::size_t>(folds), 0.0);
+    ad.nbk.assign(static_cast<std::size_t>(folds), 0);
+    for (int b = 0; b < B; ++b) {
+      const Block& bl = blocks[static_cast<std::size_t>(b)];
+      for (int c = 0; c < P; ++c) ad.X(b, c) = bl.J[s](j, src_cols[static_cast<std::size_t>(c)]);
+      ad.z[b] = bl.z[a];
+      ad.v[b] = bl.v[a];
+    }
+    for (int b = 0; b < B; ++b) {
+      const auto k = static_cast<std::size_t>(blocks[static_cast<std::size_t>(b)].fold);
+      const double w = 1.0 / ad.v[b];
+      Eigen::VectorXd x = ad.X.row(b).transpose();
+      ad.Hk[k].selfadjointView<Eigen::Lower>().rankUpdate(x, w);
+      ad.gk[k] += w * ad.z[b] * x;
+      ad.qk[k] += w * ad.z[b] * ad.z[b];
+      ad.Wk[k] += w;
+      ad.nbk[k] += 1;
+    }
+    ad.H = Eigen::MatrixXd::Zero(P, P);
+    ad.g = Eigen::VectorXd::Zero(P);
+    for (int k = 0; k < folds; ++k) {
+      ad.Hk[static_cast<std::size_t>(k)] = ad.Hk[static_cast<std::size_t>(k)].selfadjointView<Eigen::Lower>();
+      ad.H += ad.Hk[static_cast<std::size_t>(k)];
+      ad.g += ad.gk[static_cast<std::size_t>(k)];
+      ad.q += ad.qk[static_cast<std::size_t>(k)];
+      ad.W += ad.Wk[static_cast<std::size_t>(k)];
+      ad.nb += ad.nbk[static_cast<std::size_t>(k)];
+    }
+  }
+
+  // ---- The model as a set of parameter ids per sensor.
+  std::set<ParamId> model_ids(base.params.begin(), base.params.end());
+  std::set<std::pair<int, int>> in_model;  // (sensor, effect)
+  for (ParamId id : base.params) {
+    const auto& pi = model::param_info(id);
+    in_model.insert({static_cast<int>(pi.sensor), static_cast<int>(pi.effect)});
+  }
+  std::vector<std::pair<Sensor, Effect>> candidates = o.candidates;
+  if (candidates.empty()) {
+    for (const auto& e : model::effects()) {
+      if (e.kind != model::EffectKind::kDeterministic) continue;
+      for (Sensor s : {Sensor::kAccel, Sensor::kGyro}) {
+        if (!(e.sensors & (s == Sensor::kAccel ? model::kMaskAccel : model::kMaskGyro))) continue;
+        if (in_model.count({static_cast<int>(s), static_cast<int>(e.effect)})) continue;
+        candidates.push_back({s, e.effect});
+      }
+    }
+  }
+  // Base parameters the campaign cannot determine.
+  for (int a = 0; a < kNumAxes; ++a) {
+    Fit f = fit_axis(ax[static_cast<std::size_t>(a)], cols_for(ax[static_cast<std::size_t>(a)], model_ids), -1);
+    for (int c : f.dropped)
+      R.warnings.push_back("model parameter " + model::param_info(ax[static_cast<std::size_t>(a)].cols[static_cast<std::size_t>(c)]).name +
+                           " is not excited by this campaign (left at zero)");
+  }
+
+  auto gap_of = [&](const std::set<ParamId>& ids_model) {
+    Gap g;
+    for (int a = 0; a < kNumAxes; ++a) {
+      const auto& ad = ax[static_cast<std::size_t>(a)];
+      HeldOut h = heldout_axis(ad, cols_for(ad, ids_model), folds);
+      g.gap[static_cast<std::size_t>(a)] = h.gap();
+      g.rms[static_cast<std::size_t>(a)] = h.rms();
+      g.floor[static_cast<std::size_t>(a)] = h.floor();
+      g.chi2_dof[static_cast<std::size_t>(a)] = h.nb ? h.chi2 / h.nb : 0.0;
+    }
+    return g;
+  };
+  auto pos = [](double x) { return std::max(x, 0.0); };
+
+  // Scores every remaining candidate against the current model.
+  auto score_all = [&](const std::set<ParamId>& cur, const std::set<std::pair<int, int>>& cur_effects) {
+    std::vector<CandidateScore> out;
+    // Current model per axis.
+    std::array<Fit, kNumAxes> fcur;
+    std::array<HeldOut, kNumAxes> hcur;
+    for (int a = 0; a < kNumAxes; ++a) {
+      const auto& ad = ax[static_cast<std::size_t>(a)];
+      fcur[static_cast<std::size_t>(a)] = fit_axis(ad, cols_for(ad, cur), -1);
+      hcur[static_cast<std::size_t>(a)] = heldout_axis(ad, cols_for(ad, cur), folds);
+    }
+    for (auto [s, e] : candidates) {
+      if (cur_effects.count({static_cast<int>(s), static_cast<int>(e)})) continue;
+      CandidateScore cs;
+      cs.effect = model::effect_info(e).name;
+      cs.sensor = model::sensor_name(s);
+      const std::vector<ParamId> eids = model::effect_params(s, e);
+      double lr = 0, rss_aug = 0, gap_cur = 0, gap_aug = 0, ho_gain = 0;
+      int dof = 0, n_obs = 0, p_aug = 0;
+      const int a0 = s == Sensor::kAccel ? 0 : 3;
+      std::vector<ParamEstimate> mags;
+      for (int a = a0; a < a0 + 3; ++a) {
+        const auto& ad = ax[static_cast<std::size_t>(a)];
+        std::vector<int> sel = cols_for(ad, cur, eids);
+        Fit fa = fit_axis(ad, sel, -1);
+        const Fit& fc = fcur[static_cast<std::size_t>(a)];
+        const int extra = static_cast<int>(fa.kept.size()) - static_cast<int>(fc.kept.size());
+        for (int c : fa.dropped)
+          if (!cur.count(ad.cols[static_cast<std::size_t>(c)]))
+            cs.not_excitable.push_back(model::param_info(ad.cols[static_cast<std::size_t>(c)]).name + "@" + axis_name(a));
+        if (extra <= 0) continue;
+        dof += extra;
+        lr += fc.rss - fa.rss;
+        rss_aug += fa.rss;
+        n_obs += ad.nb;
+        p_aug += static_cast<int>(fa.kept.size());
+        HeldOut ha = heldout_axis(ad, sel, folds);
+        const HeldOut& hc = hcur[static_cast<std::size_t>(a)];
+        ho_gain += (hc.chi2 - hc.expected) - (ha.chi2 - ha.expected);
+        gap_cur += pos(hc.gap());
+        gap_aug += pos(ha.gap());
+        for (int i = 0; i < static_cast<int>(fa.kept.size()); ++i) {
+          const ParamId id = ad.cols[static_cast<std::size_t>(fa.kept[static_cast<std::size_t>(i)])];
+          if (cur.count(id)) continue;
+          ParamEstimate pe;
+          pe.name = model::param_info(id).name;
+          pe.axis = axis_name(a);
+          pe.value = fa.theta[i];
+          pe.sigma = std::sqrt(std::max(fa.cov(i, i), 0.0));
+          mags.push_back(pe);
+        }
+      }
+      cs.dof = dof;
+      if (dof == 0) {
+        cs.excitable = false;
+        out.push_back(cs);
+        continue;
+      }
+      // Robustness against a noise floor the data exceed: scale by the augmented fit's reduced χ² when > 1.
+      const double s2 = std::max(1.0, rss_aug / std::max(1, n_obs - p_aug));
+      cs.lr = std::max(lr, 0.0) / s2;
+      cs.p_value = chi2_sf(cs.lr, dof);
+      cs.score = -chi2_log10_sf(cs.lr, dof);
+      cs.delta_bic = -cs.lr + dof * std::log(std::max(2, n_obs));
+      cs.heldout_chi2_gain = ho_gain;
+      cs.heldout_shrink_pct = gap_cur > 0 ? 100.0 * (1.0 - gap_aug / gap_cur) : 0.0;
+      for (auto& m : mags) {
+        m.sigma *= std::sqrt(s2);
+        cs.min_detectable.push_back(5.0 * m.sigma);
+      }
+      cs.magnitude = mags;
+      out.push_back(cs);
+    }
+    int m = 0;
+    for (const auto& c : out) m += c.excitable ? 1 : 0;
+    const double level = o.alpha / std::max(1, m);
+    for (auto& c : out) c.significant = c.excitable && c.p_value < level && c.heldout_chi2_gain > 0;
+    std::stable_sort(out.begin(), out.end(), [](const CandidateScore& x, const CandidateScore& y) {
+      if (x.excitable != y.excitable) return x.excitable;
+      return x.score > y.score;
+    });
+    return out;
+  };
+
+  R.gap_before = gap_of(model_ids);
+  std::set<std::pair<int, int>> cur_effects = in_model;
+  std::set<ParamId> cur = model_ids;
+  Gap last = R.gap_before;
+  for (int step = 0; step < o.max_steps; ++step) {
+    std::vector<CandidateScore> sc = score_all(cur, cur_effects);
+    if (step == 0) R.ranking = sc;
+    const CandidateScore* best = nullptr;
+    for (const auto& c : sc)
+      if (c.significant) {
+        best = &c;
+        break;
+      }
+    if (!best) break;
+    Effect e;
+    model::find_effect(best->effect, e);
+    const Sensor s = best->sensor == "accel" ? Sensor::kAccel : Sensor::kGyro;
+    cur_effects.insert({static_cast<int>(s), static_cast<int>(e)});
+    for (ParamId id : model::effect_params(s, e)) cur.insert(id);
+    Step st;
+    st.effect = best->effect;
+    st.sensor = best->sensor;
+    st.p_value = best->p_value;
+    st.lr = best->lr;
+    st.gap_after = gap_of(cur);
+    for (int a = 0; a < kNumAxes; ++a) {
+      const double g0 = R.gap_before.gap[static_cast<std::size_t>(a)];
+      st.shrink_pct[static_cast<std::size_t>(a)] = g0 > 0 ? 100.0 * (1.0 - pos(st.gap_after.gap[static_cast<std::size_t>(a)]) / g0) : 0.0;
+    }
+    last = st.gap_after;
+    R.selected.push_back(st);
+  }
+  R.gap_after = last;
+
+  // ---- Final parameters on all data.
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto& ad = ax[static_cast<std::size_t>(a)];
+    Fit f = fit_axis(ad, cols_for(ad, cur), -1);
+    for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) {
+      const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f.kept[static_cast<std::size_t>(i)])]);
+      ParamEstimate pe;
+      pe.name = pi.name;
+      pe.axis = axis_name(a);
+      pe.value = f.theta[i];
+      pe.sigma = std::sqrt(std::max(f.cov(i, i), 0.0));
+      R.final_params.push_back(pe);
+    }
+  }
+
+  // ---- Cells: held-out residuals of the base model per axis × condition.
+  std::array<std::vector<double>, kNumAxes> rb, pvb;
+  for (int a = 0; a < kNumAxes; ++a)
+    heldout_blocks(ax[static_cast<std::size_t>(a)], cols_for(ax[static_cast<std::size_t>(a)], model_ids), folds, blocks,
+                   rb[static_cast<std::size_t>(a)], pvb[static_cast<std::size_t>(a)]);
+  double maxu[kNumAxes] = {}, maxw = 0;
+  for (const auto& b : blocks) {
+    for (int a = 0; a < kNumAxes; ++a) maxu[a] = std::max(maxu[a], std::fabs((a < 3 ? b.f : b.w)[a % 3]));
+    maxw = std::max(maxw, b.absw);
+  }
+  using Pred = std::function<bool(const Block&, int)>;
+  struct CellDef {
+    std::string cond, label;
+    Pred pred;
+  };
+  std::vector<CellDef> defs;
+  {
+    std::set<int> segs;
+    for (const auto& b : blocks) segs.insert(b.segment);
+    for (int sg : segs) defs.push_back({"segment", sg < 0 ? "moving" : "seg " + std::to_string(sg), [sg](const Block& b, int) { return b.segment == sg; }});
+    const char* ilab[5] = {"u<<0", "u<0", "u~0", "u>0", "u>>0"};
+    for (int i = 0; i < 5; ++i)
+      defs.push_back({"input", ilab[i], [i, &maxu](const Block& b, int a) {
+                        const double u = (a < 3 ? b.f : b.w)[a % 3], S = std::max(maxu[a], 1e-12);
+                        const double r = u / S;
+                        const int bin = r < -0.6 ? 0 : r < -0.1 ? 1 : r <= 0.1 ? 2 : r <= 0.6 ? 3 : 4;
+                        return bin == i;
+                      }});
+    const char* rlab[4] = {"static", "low", "mid", "high"};
+    for (int i = 0; i < 4; ++i)
+      defs.push_back({"rate", rlab[i], [i, maxw](const Block& b, int) {
+                        const int bin = b.absw < 0.01 ? 0 : b.absw < 0.33 * maxw ? 1 : b.absw < 0.67 * maxw ? 2 : 3;
+                        return bin == i;
+                      }});
+    for (int i = 0; i < static_cast<int>(plateau_T.size()); ++i) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.1f C", plateau_T[static_cast<std::size_t>(i)]);
+      defs.push_back({"plateau", buf, [i, &plateau_of](const Block& b, int) { return plateau_of(b.T) == i; }});
+    }
+    if (!plateau_T.empty()) {
+      const char* tl[3] = {"cooling", "steady", "heating"};
+      for (int i = 0; i < 3; ++i)
+        defs.push_back({"temp_rate", tl[i], [i](const Block& b, int) {
+                          const int bin = b.Tdot < -0.002 ? 0 : b.Tdot > 0.002 ? 2 : 1;
+                          return bin == i;
+                        }});
+    }
+    const double D = std::max(R.duration_s, 1e-9);
+    for (int i = 0; i < 5; ++i)
+      defs.push_back({"time", std::to_string(i * 20) + "-" + std::to_string(i * 20 + 20) + "%", [i, D](const Block& b, int) {
+                        return std::min(4, static_cast<int>(5.0 * b.t / D)) == i;
+                      }});
+  }
+  for (int a = 0; a < kNumAxes; ++a) {
+    for (const auto& d : defs) {
+      Cell c;
+      c.condition = d.cond;
+      c.label = d.label;
+      c.axis = a;
+      double sw = 0, swr = 0, sr2 = 0;
+      for (int b = 0; b < B; ++b) {
+        if (!d.pred(blocks[static_cast<std::size_t>(b)], a)) continue;
+        const double r = rb[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)], pv = pvb[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)];
+        sw += 1.0 / pv;
+        swr += r / pv;
+        sr2 += r * r / pv;
+        ++c.n_blocks;
+      }
+      if (c.n_blocks == 0) continue;
+      c.mean = swr / sw;
+      c.z = swr / std::sqrt(sw);
+      c.chi2_dof = sr2 / c.n_blocks;
+      R.cells.push_back(c);
+    }
+    // Frequency: measured Allan variance against the claim (model white noise, simulation, or white-only fit).
+    const auto& pts = R.allan[static_cast<std::size_t>(a)];
+    NoiseFit white = fit_noise_terms(pts, 0x2);
+    for (const auto& p : pts) {
+      double claim = white.terms.avar(p.tau_s);
+      if (std::isfinite(o.claimed_N[static_cast<std::size_t>(a)])) claim = o.claimed_N[static_cast<std::size_t>(a)] * o.claimed_N[static_cast<std::size_t>(a)] / p.tau_s;
+      else if (!o.sim_allan[static_cast<std::size_t>(a)].empty()) {
+        const auto& sp = o.sim_allan[static_cast<std::size_t>(a)];
+        double best = 1e300;
+        for (const auto& q : sp)
+          if (std::fabs(std::log(q.tau_s / p.tau_s)) < best) {
+            best = std::fabs(std::log(q.tau_s / p.tau_s));
+            claim = q.avar;
+          }
+      }
+      if (!(claim > 0)) continue;
+      Cell c;
+      c.condition = "frequency";
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "tau=%.3gs", p.tau_s);
+      c.label = buf;
+      c.axis = a;
+      c.n_blocks = static_cast<int>(p.terms);
+      c.mean = std::sqrt(p.avar) - std::sqrt(claim);
+      c.z = (p.avar / claim - 1.0) * std::sqrt(p.edf / 2.0);
+      c.chi2_dof = p.avar / claim;
+      R.cells.push_back(c);
+    }
+  }
+
+  // ---- Stochastic effects through the Allan curve: white-only (or claimed) against each added term.
+  {
+    const int n_tests = 3 * kNumAxes;
+    for (int a = 0; a < kNumAxes; ++a) {
+      const auto& pts = R.allan[static_cast<std::size_t>(a)];
+      if (pts.size() < 3) continue;
+      NoiseFit w = fit_noise_terms(pts, 0x2);
+      const char* names[3] = {"quantization", "bias_instability", "rate_random_walk"};
+      const unsigned bits[3] = {0x1, 0x4, 0x8};
+      for (int t = 0; t < 3; ++t) {
+        NoiseFit f = fit_noise_terms(pts, 0x2 | bits[t]);
+        StochasticScore ss;
+        ss.effect = names[t];
+        ss.axis = axis_name(a);
+        const int ti = t == 0 ? 0 : t == 1 ? 2 : 3;
+        ss.value = ti == 0 ? f.terms.Q : ti == 2 ? f.terms.B : f.terms.K;
+        ss.sigma = f.sigma[ti];
+        ss.delta_chi2 = std::max(0.0, w.chi2 - f.chi2);
+        ss.p_value = chi2_sf(ss.delta_chi2, 1.0);
+        ss.significant = ss.value > 0 && ss.p_value < o.alpha / n_tests;
+        R.stochastic.push_back(ss);
+      }
+      if (std::isfinite(o.claimed_N[static_cast<std::size_t>(a)]) && R.noise[static_cast<std::size_t>(a)].sigma[1] > 0) {
+        StochasticScore ss;
+        ss.effect = "white_noise";
+        ss.axis = axis_name(a);
+        ss.value = R.noise[static_cast<std::size_t>(a)].terms.N;
+        ss.sigma = R.noise[static_cast<std::size_t>(a)].sigma[1];
+        const double zz = (ss.value - o.claimed_N[static_cast<std::size_t>(a)]) / ss.sigma;
+        ss.delta_chi2 = zz * zz;
+        ss.p_value = chi2_sf(ss.delta_chi2, 1.0);
+        ss.significant = ss.p_value < o.alpha / n_tests;
+        R.stochastic.push_back(ss);
+      }
+    }
+  }
+
+  // ---- Plot data: residuals before/after against the variable the top effect depends on.
+  {
+    std::string eff, sen;
+    if (!R.selected.empty()) {
+      eff = R.selected[0].effect;
+      sen = R.selected[0].sensor;
+    } else if (!R.ranking.empty() && R.ranking[0].excitable) {
+      eff = R.ranking[0].effect;
+      sen = R.ranking[0].sensor;
+    }
+    if (!eff.empty()) {
+      const int a0 = sen == "accel" ? 0 : 3;
+      int axis = a0;
+      for (int a = a0; a < a0 + 3; ++a)
+        if (R.gap_before.gap[static_cast<std::size_t>(a)] > R.gap_before.gap[static_cast<std::size_t>(axis)]) axis = a;
+      std::string var = "input";
+      if (eff == "bias_temp" || eff == "scale_temp" || eff == "misalign_temp") var = "temp_C";
+      else if (eff == "temp_rate") var = "dTdt_C_s";
+      else if (eff == "temp_hysteresis") var = "hysteresis_d";
+      else if (eff == "size_effect" || eff == "timing") var = "rate_rad_s";
+      else if (eff == "g_sensitivity" || eff == "g2_sensitivity") {
+        var = "f_z";
+        double bestz = -1;
+        for (const auto& c : R.ranking)
+          if (c.effect == eff && c.sensor == sen)
+            for (const auto& m : c.magnitude) {
+              const double zz = std::fabs(m.value) / std::max(m.sigma, 1e-300);
+              if (m.axis == axis_name(axis) && zz > bestz) {
+                bestz = zz;
+                const auto& pi = model::param_info(model::find_param(m.name));
+                if (pi.k >= 0) var = std::string("f_") + static_cast<char>('x' + pi.k);
+              }
+            }
+      }
+      std::vector<double> ra, pva;
+      heldout_blocks(ax[static_cast<std::size_t>(axis)], cols_for(ax[static_cast<std::size_t>(axis)], cur), folds, blocks, ra, pva);
+      R.plot_variable = var;
+      R.plot_axis = axis_name(axis);
+      for (int b = 0; b < B; ++b) {
+        ScatterPoint sp;
+        sp.x = variable_of(blocks[static_cast<std::size_t>(b)], var, axis);
+        if (!std::isfinite(sp.x)) continue;
+        sp.before = rb[static_cast<std::size_t>(axis)][static_cast<std::size_t>(b)];
+        sp.after = ra[static_cast<std::size_t>(b)];
+        sp.sd = std::sqrt(pva[static_cast<std::size_t>(b)]);
+        R.scatter.push_back(sp);
+      }
+    }
+  }
+  for (const Block& b : blocks) R.n_static_blocks += b.is_static ? 1 : 0;
+  return R;
+}
+
+}  // namespace imuforge::diagnosis

@@ -1,0 +1,203 @@
+// Sim-to-real gap diagnosis (docs/diagnosis.md): where the residual of a model departs from its noise,
+// which unmodelled catalog effect explains it, and how far the gap shrinks, all judged on withheld data.
+//
+// Data flow (memory independent of log length):
+//   pass 0  temperature series (decimated) for Ṫ, sample count, rate
+//   pass 1  per sample: catalog regressors (host/model/measure.h) for every deterministic parameter;
+//           accumulated into *blocks* (a segment, cut further when the input or the temperature moves or
+//           after block_max_s) as sums; static blocks feed a pooled overlapping Allan variance.
+//   then    everything works on block means: the model is linear in its parameters, so the mean of
+//           y − u over a block equals θ · (mean regressor) exactly, and the variance of a block mean is
+//           the Allan variance at the block length (honest under correlated noise).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "host/diagnosis/stats.h"
+#include "host/model/catalog.h"
+#include "host/model/sensor_model.h"
+
+namespace imuforge::diagnosis {
+
+constexpr int kNumAxes = 6;  // ax ay az gx gy gz
+const char* axis_name(int a);  // "accel.x" … "gyro.z"
+
+class DiagnosisError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// One sample in SI units. Rows without reference (has_ref false) only advance the thermal history.
+struct Sample {
+  double t_s = 0.0;
+  int segment = -1;
+  double temp_C = std::numeric_limits<double>::quiet_NaN();
+  bool has_ref = false;
+  double f[3] = {0, 0, 0};  // m/s², reference specific force (nominal frame)
+  double w[3] = {0, 0, 0};  // rad/s, reference rate
+  double y[6] = {0, 0, 0, 0, 0, 0};  // outputs, SI (m/s², rad/s)
+};
+
+// A re-readable stream of samples (the diagnosis reads it twice).
+class SampleSource {
+ public:
+  virtual ~SampleSource() = default;
+  virtual void rewind() = 0;
+  virtual bool next(Sample& s) = 0;
+};
+
+class VectorSource : public SampleSource {
+ public:
+  explicit VectorSource(std::vector<Sample> v) : v_(std::move(v)) {}
+  void rewind() override { i_ = 0; }
+  bool next(Sample& s) override {
+    if (i_ >= v_.size()) return false;
+    s = v_[i_++];
+    return true;
+  }
+  const std::vector<Sample>& samples() const { return v_; }
+
+ private:
+  std::vector<Sample> v_;
+  std::size_t i_ = 0;
+};
+
+struct Options {
+  int folds = 5;                    // K of K-fold by segment
+  std::string cv = "auto";          // "segment", "plateau" (leave-one-plateau-out) or "auto"
+  double alpha = 0.01;              // family-wise level; each candidate is tested at alpha / #candidates
+  int max_steps = 6;                // greedy forward selection steps
+  double T_ref_C = 25.0;
+  double hysteresis_threshold_C = 0.5;
+  double dTdt_window_s = 10.0;
+  // Block cutting (see header comment).
+  double block_max_s = 30.0;
+  double block_f_tol = 1.0;         // m/s²
+  double block_w_tol = 0.05;        // rad/s
+  double block_temp_tol_C = 0.5;
+  int max_blocks = 6000;            // sets the minimum block length from the log duration
+  // Candidate effects; empty = every deterministic catalog effect not in the base model.
+  std::vector<std::pair<model::Sensor, model::Effect>> candidates;
+  // Claimed white-noise density per axis (unit/√Hz) for the Allan comparison; NaN = not claimed.
+  std::array<double, kNumAxes> claimed_N{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+                                         std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+                                         std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  // Optional Allan curve of a simulation of the same campaign (from --sim), per axis.
+  std::array<std::vector<AllanAccumulator::Point>, kNumAxes> sim_allan;
+};
+
+struct ParamEstimate {
+  std::string name;   // catalog name
+  std::string axis;   // axis the fit ran on ("accel.x"); timing is fitted per axis
+  double value = 0, sigma = 0;
+};
+
+// The held-out gap per axis: sqrt(weighted mean of squared held-out block residuals) − the modelled floor
+// (the same weighted mean of the predicted variances). Units of the axis (m/s², rad/s).
+struct Gap {
+  std::array<double, kNumAxes> gap{};
+  std::array<double, kNumAxes> rms{};      // held-out block-level RMS
+  std::array<double, kNumAxes> floor{};    // modelled floor
+  std::array<double, kNumAxes> chi2_dof{}; // held-out χ² / blocks
+};
+
+struct CandidateScore {
+  std::string effect;
+  std::string sensor;
+  bool excitable = true;       // false: campaign cannot excite it -> cannot be ruled out
+  std::vector<std::string> not_excitable;  // components dropped (no regressor energy / rank)
+  int dof = 0;
+  double lr = 0;               // likelihood-ratio statistic (Δχ²)
+  double p_value = 1;
+  double score = 0;            // −log10 p
+  double delta_bic = 0;        // BIC(augmented) − BIC(current); negative favours the effect
+  double heldout_chi2_gain = 0;
+  double heldout_shrink_pct = 0;  // of the sensor's held-out gap (sum over its axes)
+  bool significant = false;
+  std::vector<ParamEstimate> magnitude;
+  std::vector<double> min_detectable;  // 5σ of each kept component (what the campaign could have seen)
+};
+
+struct StochasticScore {
+  std::string effect;  // bias_instability, rate_random_walk, quantization
+  std::string axis;
+  double value = 0, sigma = 0;
+  double delta_chi2 = 0, p_value = 1;
+  bool significant = false;
+};
+
+struct Cell {
+  std::string condition;  // "segment", "input", "rate", "plateau", "temp_rate", "time", "frequency"
+  std::string label;
+  int axis = 0;
+  int n_blocks = 0;
+  double mean = 0;        // weighted mean residual (unit)
+  double z = 0;           // mean / its standard error
+  double chi2_dof = 0;
+};
+
+struct Step {
+  std::string effect, sensor;
+  double p_value = 1, lr = 0;
+  Gap gap_after;
+  std::array<double, kNumAxes> shrink_pct{};
+};
+
+struct ScatterPoint {
+  double x = 0, before = 0, after = 0, sd = 0;
+};
+
+struct DiagnosisResult {
+  // Data summary
+  long long n_samples = 0, n_used = 0;
+  int n_blocks = 0, n_units = 0, n_static_blocks = 0, folds = 0;
+  std::string cv_mode;
+  double duration_s = 0, sample_rate_hz = 0;
+  std::vector<std::string> base_effects;   // "accel.bias", ...
+  std::vector<std::string> warnings;       // e.g. "too short to tell"
+  double alpha = 0;
+  // Noise
+  std::array<std::vector<AllanAccumulator::Point>, kNumAxes> allan;
+  std::array<NoiseFit, kNumAxes> noise;
+  std::array<double, kNumAxes> claimed_N{};
+  std::array<std::vector<AllanAccumulator::Point>, kNumAxes> sim_allan;
+  // Results
+  Gap gap_before, gap_after;
+  std::vector<CandidateScore> ranking;     // step-0 ranking, best first
+  std::vector<Step> selected;
+  std::vector<StochasticScore> stochastic;
+  std::vector<Cell> cells;
+  std::vector<ParamEstimate> final_params; // the augmented model fitted on all data
+  // Plot: residual block means before/after vs the variable the top effect depends on.
+  std::string plot_variable, plot_axis;
+  std::vector<ScatterPoint> scatter;
+};
+
+// The base model: the deterministic parameters the user's model estimates.
+struct BaseModel {
+  std::vector<model::ParamId> params;
+  std::vector<std::string> effect_names;  // "accel.bias"
+  double T_ref_C = 25.0;
+};
+BaseModel base_model_from_spec(const model::ModelSpec& spec);
+// The basic model: bias, scale, misalign for both sensors.
+BaseModel basic_model();
+
+DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options& opt);
+
+// Pooled Allan variance per axis of the static blocks of a source (used for --sim).
+std::array<std::vector<AllanAccumulator::Point>, kNumAxes> static_allan(SampleSource& src, const Options& opt);
+
+// Outputs (report.cpp).
+nlohmann::json to_json(const DiagnosisResult& r);
+std::string summary_text(const DiagnosisResult& r);
+std::string report_html(const DiagnosisResult& r);
+
+}  // namespace imuforge::diagnosis

@@ -1,0 +1,395 @@
+// diagnosis.json, the text summary and the self-contained report.html (inline SVG, no scripts).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <sstream>
+
+#include "host/diagnosis/diagnose.h"
+
+namespace imuforge::diagnosis {
+
+namespace {
+
+nlohmann::json num(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+nlohmann::json gap_json(const Gap& g, const Gap* before) {
+  nlohmann::json j = nlohmann::json::object();
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto u = static_cast<std::size_t>(a);
+    nlohmann::json e = {{"gap", num(g.gap[u])}, {"heldout_rms", num(g.rms[u])}, {"noise_floor", num(g.floor[u])},
+                        {"heldout_chi2_dof", num(g.chi2_dof[u])}};
+    if (before) {
+      const double g0 = before->gap[u];
+      e["shrink_pct"] = g0 > 0 ? num(100.0 * (1.0 - std::max(g.gap[u], 0.0) / g0)) : nlohmann::json(nullptr);
+    }
+    j[axis_name(a)] = e;
+  }
+  return j;
+}
+
+nlohmann::json params_json(const std::vector<ParamEstimate>& v) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& p : v) a.push_back({{"name", p.name}, {"axis", p.axis}, {"value", num(p.value)}, {"sigma", num(p.sigma)}});
+  return a;
+}
+
+std::string fmt(const char* f, double x) {
+  char b[64];
+  std::snprintf(b, sizeof b, f, x);
+  return b;
+}
+
+std::string esc(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    if (c == '<') o += "&lt;";
+    else if (c == '>') o += "&gt;";
+    else if (c == '&') o += "&amp;";
+    else if (c == '"') o += "&quot;";
+    else o += c;
+  }
+  return o;
+}
+
+std::string unit_of(int a) { return a < 3 ? "m/s^2" : "rad/s"; }
+
+}  // namespace
+
+nlohmann::json to_json(const DiagnosisResult& r) {
+  nlohmann::json j;
+  j["format"] = "imuforge-diagnosis";
+  j["format_version"] = 1;
+  j["software_version"] = IMUFORGE_VERSION;
+  j["data"] = {{"samples", r.n_samples}, {"samples_used", r.n_used}, {"duration_s", r.duration_s},
+               {"sample_rate_hz", r.sample_rate_hz}, {"blocks", r.n_blocks}, {"static_blocks", r.n_static_blocks},
+               {"segments", r.n_units}};
+  j["base_model"] = r.base_effects;
+  j["validation"] = {{"cv", r.cv_mode}, {"folds", r.folds}, {"alpha_familywise", r.alpha},
+                     {"correction", "bonferroni"},
+                     {"alpha_per_candidate", r.ranking.empty() ? r.alpha : r.alpha / std::max<std::size_t>(1, std::count_if(r.ranking.begin(), r.ranking.end(), [](const CandidateScore& c) { return c.excitable; }))}};
+  j["gap_before"] = gap_json(r.gap_before, nullptr);
+  nlohmann::json rk = nlohmann::json::array();
+  for (const auto& c : r.ranking) {
+    nlohmann::json e = {{"effect", c.effect}, {"sensor", c.sensor}, {"excitable", c.excitable}};
+    if (c.excitable) {
+      e["score"] = num(c.score);
+      e["p_value"] = num(c.p_value);
+      e["lr"] = num(c.lr);
+      e["dof"] = c.dof;
+      e["delta_bic"] = num(c.delta_bic);
+      e["heldout_chi2_gain"] = num(c.heldout_chi2_gain);
+      e["heldout_shrink_pct"] = num(c.heldout_shrink_pct);
+      e["significant"] = c.significant;
+      e["magnitude"] = params_json(c.magnitude);
+    } else {
+      e["score"] = nullptr;
+      e["p_value"] = nullptr;
+      e["delta_bic"] = nullptr;
+      e["heldout_shrink_pct"] = nullptr;
+      e["magnitude"] = nlohmann::json::array();
+      e["note"] = "cannot be excited by this campaign: cannot be ruled out";
+    }
+    if (!c.not_excitable.empty()) e["not_excitable"] = c.not_excitable;
+    rk.push_back(e);
+  }
+  j["ranking"] = rk;
+  nlohmann::json sel = nlohmann::json::array();
+  for (const auto& s : r.selected)
+    sel.push_back({{"effect", s.effect}, {"sensor", s.sensor}, {"p_value", num(s.p_value)}, {"lr", num(s.lr)},
+                   {"gap_after", gap_json(s.gap_after, &r.gap_before)}});
+  j["selected"] = sel;
+  j["gap_after"] = gap_json(r.gap_after, &r.gap_before);
+  j["parameters"] = params_json(r.final_params);
+  nlohmann::json st = nlohmann::json::array();
+  for (const auto& s : r.stochastic)
+    st.push_back({{"effect", s.effect}, {"axis", s.axis}, {"value", num(s.value)}, {"sigma", num(s.sigma)},
+                  {"delta_chi2", num(s.delta_chi2)}, {"p_value", num(s.p_value)}, {"significant", s.significant}});
+  j["stochastic"] = st;
+  nlohmann::json noise = nlohmann::json::object();
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto u = static_cast<std::size_t>(a);
+    nlohmann::json pts = nlohmann::json::array();
+    for (const auto& p : r.allan[u]) pts.push_back({num(p.tau_s), num(std::sqrt(p.avar)), num(p.edf)});
+    const auto& t = r.noise[u].terms;
+    noise[axis_name(a)] = {{"Q", num(t.Q)}, {"N", num(t.N)}, {"B", num(t.B)}, {"K", num(t.K)},
+                           {"claimed_N", num(r.claimed_N[u])}, {"allan", pts}};
+  }
+  j["noise"] = noise;
+  nlohmann::json cells = nlohmann::json::array();
+  for (const auto& c : r.cells)
+    cells.push_back({{"axis", axis_name(c.axis)}, {"condition", c.condition}, {"label", c.label}, {"n", c.n_blocks},
+                     {"mean", num(c.mean)}, {"z", num(c.z)}, {"chi2_dof", num(c.chi2_dof)}});
+  j["cells"] = cells;
+  j["warnings"] = r.warnings;
+  return j;
+}
+
+std::string summary_text(const DiagnosisResult& r) {
+  std::ostringstream o;
+  o << "imuforge diagnose: " << r.n_used << " of " << r.n_samples << " samples used, " << fmt("%.1f", r.duration_s) << " s at "
+    << fmt("%.1f", r.sample_rate_hz) << " Hz; " << r.n_blocks << " blocks in " << r.n_units << " segments; " << r.folds
+    << "-fold by " << r.cv_mode << "\n";
+  o << "base model:";
+  for (const auto& e : r.base_effects) o << " " << e;
+  o << "\n\nWHERE: held-out gap (RMS of withheld block residuals above the modelled noise floor)\n";
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto u = static_cast<std::size_t>(a);
+    o << "  " << axis_name(a) << ": gap " << fmt("%10.3e", r.gap_before.gap[u]) << "  floor " << fmt("%10.3e", r.gap_before.floor[u])
+      << "  chi2/dof " << fmt("%7.2f", r.gap_before.chi2_dof[u]) << "  " << unit_of(a) << "\n";
+  }
+  std::vector<Cell> worst;
+  for (const auto& c : r.cells)
+    if (c.condition != "segment") worst.push_back(c);
+  std::sort(worst.begin(), worst.end(), [](const Cell& x, const Cell& y) { return std::fabs(x.z) > std::fabs(y.z); });
+  o << "  worst cells (axis, condition, |z|):\n";
+  for (std::size_t i = 0; i < std::min<std::size_t>(5, worst.size()); ++i)
+    o << "    " << axis_name(worst[i].axis) << "  " << worst[i].condition << " " << worst[i].label << "  z=" << fmt("%.1f", worst[i].z)
+      << "  chi2/dof=" << fmt("%.2f", worst[i].chi2_dof) << "\n";
+  o << "\nWHICH: candidate effects (best first; significant at family-wise alpha=" << r.alpha << ", Bonferroni)\n";
+  for (const auto& c : r.ranking) {
+    if (!c.excitable) continue;
+    o << "  " << (c.significant ? "* " : "  ") << c.sensor << "." << c.effect << "  -log10p=" << fmt("%.1f", c.score)
+      << "  dBIC=" << fmt("%.1f", c.delta_bic) << "  held-out shrink=" << fmt("%.0f", c.heldout_shrink_pct) << "%\n";
+  }
+  std::vector<std::string> unexc;
+  for (const auto& c : r.ranking)
+    if (!c.excitable) unexc.push_back(c.sensor + "." + c.effect);
+  if (!unexc.empty()) {
+    o << "  not excited by this campaign (cannot be ruled out):";
+    for (const auto& s : unexc) o << " " << s;
+    o << "\n";
+  }
+  for (const auto& s : r.stochastic)
+    if (s.significant) o << "  * stochastic " << s.axis << "." << s.effect << " = " << fmt("%.3g", s.value) << " +/- " << fmt("%.2g", s.sigma) << " (Allan)\n";
+  o << "\nHOW FAR: greedy forward selection\n";
+  if (r.selected.empty()) o << "  nothing significant beyond the model\n";
+  for (const auto& s : r.selected) {
+    o << "  + " << s.sensor << "." << s.effect << " (p=" << fmt("%.2g", s.p_value) << "): gap";
+    const int a0 = s.sensor == "accel" ? 0 : 3;
+    for (int a = a0; a < a0 + 3; ++a)
+      o << " " << axis_name(a) << "=" << fmt("%.3e", s.gap_after.gap[static_cast<std::size_t>(a)]) << " ("
+        << fmt("%.0f", s.shrink_pct[static_cast<std::size_t>(a)]) << "% shrink)";
+    o << "\n";
+  }
+  for (const auto& s : r.selected)
+    for (const auto& c : r.ranking)
+      if (c.effect == s.effect && c.sensor == s.sensor) {
+        o << "  magnitude of " << c.sensor << "." << c.effect << ":\n";
+        for (const auto& m : c.magnitude)
+          o << "    " << m.name << " [" << m.axis << "] = " << fmt("%.4g", m.value) << " +/- " << fmt("%.2g", m.sigma) << "\n";
+      }
+  o << "gap after:";
+  for (int a = 0; a < kNumAxes; ++a) o << " " << axis_name(a) << "=" << fmt("%.3e", r.gap_after.gap[static_cast<std::size_t>(a)]);
+  o << "\n";
+  for (const auto& w : r.warnings) o << "warning: " << w << "\n";
+  return o.str();
+}
+
+// ---- HTML with inline SVG -------------------------------------------------------------------------
+namespace {
+
+std::string color_for_z(double z) {
+  const double t = std::clamp(z / 10.0, -1.0, 1.0);
+  int rr = 255, gg = 255, bb = 255;
+  if (t > 0) {
+    gg = bb = static_cast<int>(255 * (1 - t));
+  } else {
+    rr = gg = static_cast<int>(255 * (1 + t));
+  }
+  char b[16];
+  std::snprintf(b, sizeof b, "#%02x%02x%02x", rr, gg, bb);
+  return b;
+}
+
+std::string heatmap_svg(const DiagnosisResult& r) {
+  // Columns: every non-segment cell label (segments summarised by the worst one per axis).
+  std::vector<std::pair<std::string, std::string>> cols;
+  for (const auto& c : r.cells) {
+    if (c.condition == "segment") continue;
+    auto key = std::make_pair(c.condition, c.label);
+    if (std::find(cols.begin(), cols.end(), key) == cols.end()) cols.push_back(key);
+  }
+  cols.push_back({"segment", "worst"});
+  std::map<std::pair<int, std::pair<std::string, std::string>>, const Cell*> at;
+  for (const auto& c : r.cells) {
+    if (c.condition == "segment") {
+      auto k = std::make_pair(c.axis, std::make_pair(std::string("segment"), std::string("worst")));
+      if (!at.count(k) || std::fabs(c.z) > std::fabs(at[k]->z)) at[k] = &c;
+    } else {
+      at[{c.axis, {c.condition, c.label}}] = &c;
+    }
+  }
+  const int cw = 26, ch = 24, left = 70, top = 120;
+  const int W = left + cw * static_cast<int>(cols.size()) + 20, H = top + ch * kNumAxes + 40;
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='10'>";
+  for (std::size_t i = 0; i < cols.size(); ++i) {
+    const int x = left + cw * static_cast<int>(i) + cw / 2;
+    s << "<text transform='translate(" << x << "," << top - 4 << ") rotate(-60)'>" << esc(cols[i].first + ": " + cols[i].second) << "</text>";
+  }
+  for (int a = 0; a < kNumAxes; ++a) {
+    s << "<text x='4' y='" << top + ch * a + 16 << "'>" << axis_name(a) << "</text>";
+    for (std::size_t i = 0; i < cols.size(); ++i) {
+      auto it = at.find({a, cols[i]});
+      const int x = left + cw * static_cast<int>(i), y = top + ch * a;
+      if (it == at.end()) {
+        s << "<rect x='" << x << "' y='" << y << "' width='" << cw - 1 << "' height='" << ch - 1 << "' fill='#eee'/>";
+        continue;
+      }
+      const Cell& c = *it->second;
+      s << "<rect x='" << x << "' y='" << y << "' width='" << cw - 1 << "' height='" << ch - 1 << "' fill='" << color_for_z(c.z)
+        << "'><title>" << esc(std::string(axis_name(a)) + " " + c.condition + " " + c.label) << ": z=" << fmt("%.2f", c.z)
+        << " chi2/dof=" << fmt("%.2f", c.chi2_dof) << " mean=" << fmt("%.3g", c.mean) << " n=" << c.n_blocks << "</title></rect>";
+      if (std::fabs(c.z) >= 3) s << "<text x='" << x + 2 << "' y='" << y + 15 << "' font-size='8'>" << fmt("%.0f", c.z) << "</text>";
+    }
+  }
+  s << "<text x='" << left << "' y='" << H - 10 << "'>colour: z = mean/SE of held-out residuals (blue -10 ... white 0 ... red +10); "
+    << "frequency cells: (AVAR/claimed - 1) scaled by its edf</text>";
+  s << "</svg>";
+  return s.str();
+}
+
+struct Axes {
+  double x0, x1, y0, y1;
+  int W = 640, H = 300, L = 70, Rm = 20, T = 20, Bm = 40;
+  bool logx = false, logy = false;
+  double tx(double x) const {
+    const double a = logx ? std::log10(x0) : x0, b = logx ? std::log10(x1) : x1, v = logx ? std::log10(x) : x;
+    return L + (v - a) / (b - a) * (W - L - Rm);
+  }
+  double ty(double y) const {
+    const double a = logy ? std::log10(y0) : y0, b = logy ? std::log10(y1) : y1, v = logy ? std::log10(y) : y;
+    return H - Bm - (v - a) / (b - a) * (H - T - Bm);
+  }
+};
+
+std::string frame(const Axes& ax, const std::string& xl, const std::string& yl) {
+  std::ostringstream s;
+  s << "<rect x='" << ax.L << "' y='" << ax.T << "' width='" << ax.W - ax.L - ax.Rm << "' height='" << ax.H - ax.T - ax.Bm
+    << "' fill='none' stroke='#000'/>";
+  for (int i = 0; i <= 4; ++i) {
+    const double fx = i / 4.0;
+    double x = ax.logx ? std::pow(10, std::log10(ax.x0) + fx * (std::log10(ax.x1) - std::log10(ax.x0))) : ax.x0 + fx * (ax.x1 - ax.x0);
+    double y = ax.logy ? std::pow(10, std::log10(ax.y0) + fx * (std::log10(ax.y1) - std::log10(ax.y0))) : ax.y0 + fx * (ax.y1 - ax.y0);
+    s << "<text x='" << ax.tx(x) - 15 << "' y='" << ax.H - ax.Bm + 14 << "'>" << fmt("%.3g", x) << "</text>";
+    s << "<text x='2' y='" << ax.ty(y) + 3 << "'>" << fmt("%.3g", y) << "</text>";
+  }
+  s << "<text x='" << ax.W / 2 << "' y='" << ax.H - 6 << "'>" << esc(xl) << "</text>";
+  s << "<text x='4' y='12'>" << esc(yl) << "</text>";
+  return s.str();
+}
+
+std::string scatter_svg(const DiagnosisResult& r) {
+  if (r.scatter.empty()) return "<p>No top effect: nothing to plot.</p>";
+  Axes ax{};
+  ax.x0 = 1e300;
+  ax.x1 = -1e300;
+  ax.y0 = 1e300;
+  ax.y1 = -1e300;
+  for (const auto& p : r.scatter) {
+    ax.x0 = std::min(ax.x0, p.x);
+    ax.x1 = std::max(ax.x1, p.x);
+    ax.y0 = std::min({ax.y0, p.before, p.after});
+    ax.y1 = std::max({ax.y1, p.before, p.after});
+  }
+  if (ax.x1 <= ax.x0) { ax.x0 -= 1; ax.x1 += 1; }
+  if (ax.y1 <= ax.y0) { ax.y0 -= 1e-9; ax.y1 += 1e-9; }
+  const double py = 0.05 * (ax.y1 - ax.y0), px = 0.05 * (ax.x1 - ax.x0);
+  ax.y0 -= py; ax.y1 += py; ax.x0 -= px; ax.x1 += px;
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << ax.W << "' height='" << ax.H << "' font-family='sans-serif' font-size='10'>";
+  s << frame(ax, r.plot_variable, "held-out block residual, " + r.plot_axis);
+  if (ax.y0 < 0 && ax.y1 > 0) s << "<line x1='" << ax.L << "' x2='" << ax.W - ax.Rm << "' y1='" << ax.ty(0) << "' y2='" << ax.ty(0) << "' stroke='#999'/>";
+  for (const auto& p : r.scatter) s << "<circle cx='" << ax.tx(p.x) << "' cy='" << ax.ty(p.before) << "' r='2.5' fill='#d33' fill-opacity='0.6'/>";
+  for (const auto& p : r.scatter) s << "<circle cx='" << ax.tx(p.x) << "' cy='" << ax.ty(p.after) << "' r='2.5' fill='#33d' fill-opacity='0.6'/>";
+  s << "<text x='" << ax.L + 10 << "' y='" << ax.T + 14 << "' fill='#d33'>before (model as given)</text>";
+  s << "<text x='" << ax.L + 10 << "' y='" << ax.T + 28 << "' fill='#33d'>after (selected effects added)</text>";
+  s << "</svg>";
+  return s.str();
+}
+
+std::string allan_svg(const DiagnosisResult& r, int a) {
+  const auto& pts = r.allan[static_cast<std::size_t>(a)];
+  if (pts.size() < 2) return "<p>" + std::string(axis_name(a)) + ": no static record long enough for an Allan deviation.</p>";
+  Axes ax{};
+  ax.W = 320;
+  ax.H = 240;
+  ax.logx = ax.logy = true;
+  ax.x0 = pts.front().tau_s;
+  ax.x1 = pts.back().tau_s;
+  ax.y0 = 1e300;
+  ax.y1 = 0;
+  for (const auto& p : pts) {
+    ax.y0 = std::min(ax.y0, std::sqrt(p.avar));
+    ax.y1 = std::max(ax.y1, std::sqrt(p.avar));
+  }
+  const auto& sim = r.sim_allan[static_cast<std::size_t>(a)];
+  const double cN = r.claimed_N[static_cast<std::size_t>(a)];
+  auto claim = [&](double tau) {
+    if (std::isfinite(cN)) return cN / std::sqrt(tau);
+    return 0.0;
+  };
+  for (const auto& p : pts) {
+    if (claim(p.tau_s) > 0) { ax.y0 = std::min(ax.y0, claim(p.tau_s)); ax.y1 = std::max(ax.y1, claim(p.tau_s)); }
+  }
+  for (const auto& p : sim) { ax.y0 = std::min(ax.y0, std::sqrt(p.avar)); ax.y1 = std::max(ax.y1, std::sqrt(p.avar)); }
+  ax.y0 /= 1.5;
+  ax.y1 *= 1.5;
+  if (ax.x1 <= ax.x0) ax.x1 = ax.x0 * 2;
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << ax.W << "' height='" << ax.H << "' font-family='sans-serif' font-size='9'>";
+  s << frame(ax, "tau (s)", std::string(axis_name(a)) + " Allan deviation (" + unit_of(a) + ")");
+  auto poly = [&](const std::vector<std::pair<double, double>>& v, const char* col, const char* dash) {
+    s << "<polyline fill='none' stroke='" << col << "' stroke-dasharray='" << dash << "' points='";
+    for (auto& [x, y] : v)
+      if (y > 0 && x >= ax.x0 && x <= ax.x1) s << ax.tx(x) << "," << ax.ty(y) << " ";
+    s << "'/>";
+  };
+  std::vector<std::pair<double, double>> meas, fit, cl, sm;
+  for (const auto& p : pts) {
+    meas.push_back({p.tau_s, std::sqrt(p.avar)});
+    fit.push_back({p.tau_s, std::sqrt(r.noise[static_cast<std::size_t>(a)].terms.avar(p.tau_s))});
+    if (claim(p.tau_s) > 0) cl.push_back({p.tau_s, claim(p.tau_s)});
+  }
+  for (const auto& p : sim) sm.push_back({p.tau_s, std::sqrt(p.avar)});
+  poly(meas, "#000", "");
+  poly(fit, "#d33", "4,2");
+  if (!cl.empty()) poly(cl, "#33d", "2,2");
+  if (!sm.empty()) poly(sm, "#3a3", "6,3");
+  for (const auto& p : pts) s << "<circle cx='" << ax.tx(p.tau_s) << "' cy='" << ax.ty(std::sqrt(p.avar)) << "' r='2'/>";
+  s << "</svg>";
+  return s.str();
+}
+
+}  // namespace
+
+std::string report_html(const DiagnosisResult& r) {
+  std::ostringstream h;
+  h << "<!DOCTYPE html><html><head><meta charset='utf-8'><title>imuforge diagnosis</title>"
+    << "<style>body{font-family:sans-serif;max-width:1100px;margin:1em auto}table{border-collapse:collapse}"
+    << "td,th{border:1px solid #ccc;padding:2px 6px;font-size:12px}pre{background:#f6f6f6;padding:8px}</style></head><body>";
+  h << "<h1>Sim-to-real gap diagnosis</h1>";
+  h << "<pre>" << esc(summary_text(r)) << "</pre>";
+  h << "<h2>Where: held-out residuals per axis and condition</h2>" << heatmap_svg(r);
+  h << "<h2>Which: ranking</h2><table><tr><th>#</th><th>effect</th><th>-log10 p</th><th>p</th><th>dBIC</th><th>held-out shrink %</th><th>significant</th></tr>";
+  int i = 0;
+  for (const auto& c : r.ranking) {
+    ++i;
+    h << "<tr><td>" << i << "</td><td>" << esc(c.sensor + "." + c.effect) << "</td>";
+    if (c.excitable)
+      h << "<td>" << fmt("%.2f", c.score) << "</td><td>" << fmt("%.3g", c.p_value) << "</td><td>" << fmt("%.1f", c.delta_bic)
+        << "</td><td>" << fmt("%.0f", c.heldout_shrink_pct) << "</td><td>" << (c.significant ? "yes" : "no") << "</td></tr>";
+    else
+      h << "<td colspan='5'>not excited by this campaign: cannot be ruled out</td></tr>";
+  }
+  h << "</table>";
+  h << "<h2>Residuals before and after, against " << esc(r.plot_variable) << " (" << esc(r.plot_axis) << ")</h2>" << scatter_svg(r);
+  h << "<h2>Allan deviation of static residuals</h2><p>black: measured; red dashed: fitted IEEE 952 terms; blue dotted: white noise "
+       "the model claims; green dashed: simulation of the same campaign (--sim).</p>";
+  for (int a = 0; a < kNumAxes; ++a) h << allan_svg(r, a);
+  h << "</body></html>\n";
+  return h.str();
+}
+
+}  // namespace imuforge::diagnosis

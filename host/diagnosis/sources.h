@@ -1,0 +1,67 @@
+// Sample sources for the diagnosis: a log file (CSV or binary, host/io/log.h), a real log whose missing
+// references come from a simulation of the same campaign, and the reference-free wrapper for hand-held
+// recordings (static poses of unknown orientation).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "host/diagnosis/diagnose.h"
+#include "host/io/log.h"
+
+namespace imuforge::diagnosis {
+
+// Reads a log v1; outputs are raw counts × the LSBs of the metadata. Throws io::LogError / DiagnosisError.
+class LogSource : public SampleSource {
+ public:
+  explicit LogSource(const std::string& path);
+  void rewind() override { r_.rewind(); }
+  bool next(Sample& s) override;
+  const io::LogMeta& meta() const { return r_.meta(); }
+
+ private:
+  io::LogReader r_;
+};
+
+// Real samples with the reference, segment and temperature taken from a simulation log of the same
+// campaign when the real row has none (rows are paired in order; a length mismatch is an error).
+class PairedSource : public SampleSource {
+ public:
+  PairedSource(SampleSource& real, SampleSource& sim) : real_(real), sim_(sim) {}
+  void rewind() override { real_.rewind(); sim_.rewind(); row_ = 0; }
+  bool next(Sample& s) override;
+
+ private:
+  SampleSource& real_;
+  SampleSource& sim_;
+  long long row_ = 0;
+};
+
+// Reference-free mode (Tedaldi et al., ICRA 2014 style): static intervals are detected from the
+// accelerometer variance in 1 s windows; the accelerometer is calibrated to the gravity magnitude on the
+// pose means (bias, 3 scales, 3 non-orthogonalities; lower-triangular gauge); each static sample then
+// gets the pseudo-reference f = g·unit(calibrated pose mean), ω = 0, segment = pose index. Moving samples
+// carry no reference. What this cannot see: any error along the pose direction orthogonal to |f|.
+struct ReferenceFreeInfo {
+  int poses = 0;
+  double static_s = 0;
+  double gravity_mps2 = 9.80665;
+  double accel_rms_before = 0, accel_rms_after = 0;  // RMS of |f| − g over pose means, raw vs calibrated
+};
+class ReferenceFreeSource : public SampleSource {
+ public:
+  ReferenceFreeSource(SampleSource& inner, double gravity_mps2, double window_s = 1.0, double min_pose_s = 2.0);
+  void rewind() override;
+  bool next(Sample& s) override;
+  const ReferenceFreeInfo& info() const { return info_; }
+
+ private:
+  SampleSource& inner_;
+  ReferenceFreeInfo info_;
+  double t0_ = 0, window_s_ = 1;
+  std::vector<int> window_pose_;            // pose index per window, −1 = moving
+  std::vector<std::array<double, 3>> dir_;  // pseudo-reference per pose
+};
+
+}  // namespace imuforge::diagnosis

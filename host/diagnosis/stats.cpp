@@ -1,0 +1,201 @@
+#include "host/diagnosis/stats.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace imuforge::diagnosis {
+
+namespace {
+constexpr double kEps = 1e-16;
+constexpr int kMaxIter = 100000;
+
+// log P(a,x) via the series  P = e^{-x} x^a / Γ(a+1) Σ_n x^n / ((a+1)…(a+n)).
+double log_gamma_p_series(double a, double x) {
+  double term = 1.0 / a, sum = term, ap = a;
+  for (int n = 0; n < kMaxIter; ++n) {
+    ap += 1.0;
+    term *= x / ap;
+    sum += term;
+    if (std::fabs(term) < std::fabs(sum) * kEps) break;
+  }
+  return -x + a * std::log(x) - std::lgamma(a) + std::log(sum);
+}
+
+// log Q(a,x) via the continued fraction Γ(a,x) = e^{-x} x^a (1/(x+1−a−) 1·(1−a)/(x+3−a−) …), modified Lentz.
+double log_gamma_q_cf(double a, double x) {
+  const double tiny = 1e-300;
+  double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
+  for (int i = 1; i < kMaxIter; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::fabs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::fabs(c) < tiny) c = tiny;
+    d = 1.0 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::fabs(del - 1.0) < kEps) break;
+  }
+  return -x + a * std::log(x) - std::lgamma(a) + std::log(h);
+}
+}  // namespace
+
+double log_gamma_q(double a, double x) {
+  if (!(a > 0.0) || !(x >= 0.0)) throw std::invalid_argument("log_gamma_q: need a > 0 and x >= 0");
+  if (x == 0.0) return 0.0;
+  if (std::isinf(x)) return -std::numeric_limits<double>::infinity();
+  if (x < a + 1.0) {
+    const double lp = log_gamma_p_series(a, x);
+    const double p = std::exp(lp);
+    return p >= 1.0 ? -std::numeric_limits<double>::infinity() : std::log1p(-p);
+  }
+  return log_gamma_q_cf(a, x);
+}
+
+double gamma_q(double a, double x) { return std::exp(log_gamma_q(a, x)); }
+
+double chi2_sf(double x, double k) { return x <= 0.0 ? 1.0 : gamma_q(0.5 * k, 0.5 * x); }
+
+double chi2_log10_sf(double x, double k) { return x <= 0.0 ? 0.0 : log_gamma_q(0.5 * k, 0.5 * x) / std::log(10.0); }
+
+void AllanAccumulator::add_series(const std::vector<double>& x) {
+  const std::size_t L = x.size();
+  if (L < 3) return;
+  // Cumulative sums make every cluster average O(1).
+  std::vector<double> cs(L + 1, 0.0);
+  // Remove the series mean first: it cancels in the differences and keeps the sums well conditioned.
+  double mean = 0.0;
+  for (double v : x) mean += v;
+  mean /= static_cast<double>(L);
+  for (std::size_t i = 0; i < L; ++i) cs[i + 1] = cs[i] + (x[i] - mean);
+  std::size_t level = 0;
+  for (std::size_t m = 1; 2 * m + 1 <= L; m *= 2, ++level) {
+    if (num_.size() <= level) {
+      num_.push_back(0.0);
+      cnt_.push_back(0);
+      edf_.push_back(0.0);
+    }
+    double s = 0.0;
+    const std::size_t n_terms = L - 2 * m + 1;
+    for (std::size_t i = 0; i < n_terms; ++i) {
+      const double a0 = cs[i + m] - cs[i];
+      const double a1 = cs[i + 2 * m] - cs[i + m];
+      const double d = (a1 - a0) / static_cast<double>(m);
+      s += d * d;
+    }
+    num_[level] += s;
+    cnt_[level] += static_cast<long long>(n_terms);
+    // Howe's edf for the overlapping estimator under white FM noise, summed over series.
+    const double M = static_cast<double>(L), md = static_cast<double>(m);
+    double edf = (3.0 * (M - 1.0) / (2.0 * md) - 2.0 * (M - 2.0) / M) * 4.0 * md * md / (4.0 * md * md + 5.0);
+    edf_[level] += std::max(edf, 1.0);
+  }
+}
+
+std::vector<AllanAccumulator::Point> AllanAccumulator::points(long long min_terms) const {
+  std::vector<Point> out;
+  for (std::size_t l = 0; l < num_.size(); ++l) {
+    if (cnt_[l] < min_terms) continue;
+    Point p;
+    p.tau_s = tau0_s_ * static_cast<double>(1ULL << l);
+    p.avar = num_[l] / (2.0 * static_cast<double>(cnt_[l]));
+    p.edf = edf_[l];
+    p.terms = cnt_[l];
+    out.push_back(p);
+  }
+  return out;
+}
+
+double NoiseTerms::avar(double tau_s) const {
+  return 3.0 * Q * Q / (tau_s * tau_s) + N * N / tau_s + 2.0 * std::log(2.0) / M_PI * B * B + K * K * tau_s / 3.0;
+}
+
+NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsigned enabled_mask) {
+  NoiseFit best;
+  best.n_points = static_cast<int>(pts.size());
+  best.chi2 = std::numeric_limits<double>::infinity();
+  if (pts.empty()) {
+    best.chi2 = 0.0;
+    return best;
+  }
+  const double kFl = 2.0 * std::log(2.0) / M_PI;
+  auto basis = [&](int t, double tau) {
+    switch (t) {
+      case 0: return 1.0 / (tau * tau);
+      case 1: return 1.0 / tau;
+      case 2: return 1.0;
+      default: return tau;
+    }
+  };
+  // Weights from the measured values (σ(AVAR) ≈ AVAR·√(2/edf)); one reweighting pass with the fitted
+  // curve reduces the bias toward low points.
+  for (unsigned subset = 1; subset < 16; ++subset) {
+    if ((subset & enabled_mask) != subset) continue;
+    std::vector<int> terms;
+    for (int t = 0; t < 4; ++t)
+      if (subset & (1u << t)) terms.push_back(t);
+    const int p = static_cast<int>(terms.size());
+    if (p > static_cast<int>(pts.size())) continue;
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(p);
+    Eigen::MatrixXd H;
+    bool ok = true;
+    for (int pass = 0; pass < 3 && ok; ++pass) {
+      H = Eigen::MatrixXd::Zero(p, p);
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
+      for (const auto& pt : pts) {
+        double ref = pt.avar;
+        if (pass > 0) {
+          double f = 0;
+          for (int i = 0; i < p; ++i) f += c[i] * basis(terms[static_cast<std::size_t>(i)], pt.tau_s);
+          if (f > 0) ref = f;
+        }
+        const double w = pt.edf / (2.0 * ref * ref);
+        Eigen::VectorXd a(p);
+        for (int i = 0; i < p; ++i) a[i] = basis(terms[static_cast<std::size_t>(i)], pt.tau_s);
+        H += w * a * a.transpose();
+        g += w * a * pt.avar;
+      }
+      // Scale to unit diagonal: the basis spans many decades.
+      Eigen::VectorXd s = H.diagonal().cwiseSqrt().cwiseInverse();
+      Eigen::MatrixXd Hs = s.asDiagonal() * H * s.asDiagonal();
+      Eigen::LDLT<Eigen::MatrixXd> ldlt(Hs);
+      if (ldlt.info() != Eigen::Success) { ok = false; break; }
+      c = s.asDiagonal() * ldlt.solve(s.asDiagonal() * g);
+      for (int i = 0; i < p; ++i)
+        if (!(c[i] > 0)) ok = false;
+    }
+    if (!ok) continue;
+    double chi2 = 0;
+    for (const auto& pt : pts) {
+      double f = 0;
+      for (int i = 0; i < p; ++i) f += c[i] * basis(terms[static_cast<std::size_t>(i)], pt.tau_s);
+      chi2 += pt.edf / 2.0 * (pt.avar - f) * (pt.avar - f) / (f * f);
+    }
+    if (chi2 < best.chi2) {
+      NoiseFit nf;
+      nf.n_points = best.n_points;
+      nf.chi2 = chi2;
+      Eigen::MatrixXd cov = H.inverse();
+      for (int i = 0; i < p; ++i) {
+        const int t = terms[static_cast<std::size_t>(i)];
+        const double ci = c[i], si = std::sqrt(std::max(cov(i, i), 0.0));
+        // σ of a square-root parameter: d√c = dc / (2√c).
+        switch (t) {
+          case 0: nf.terms.Q = std::sqrt(ci / 3.0); nf.sigma[0] = si / 3.0 / (2.0 * nf.terms.Q); break;
+          case 1: nf.terms.N = std::sqrt(ci); nf.sigma[1] = si / (2.0 * nf.terms.N); break;
+          case 2: nf.terms.B = std::sqrt(ci / kFl); nf.sigma[2] = si / kFl / (2.0 * nf.terms.B); break;
+          default: nf.terms.K = std::sqrt(3.0 * ci); nf.sigma[3] = 3.0 * si / (2.0 * nf.terms.K); break;
+        }
+      }
+      best = nf;
+    }
+  }
+  if (!std::isfinite(best.chi2)) best.chi2 = 0.0;
+  return best;
+}
+
+}  // namespace imuforge::diagnosis

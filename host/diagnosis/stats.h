@@ -1,0 +1,61 @@
+// Statistics used by the gap diagnosis: chi-square tail, overlapping Allan variance, and the
+// IEEE 952 noise-term fit of an Allan curve. No dependency on the rest of imuforge.
+#pragma once
+
+#include <vector>
+
+namespace imuforge::diagnosis {
+
+// Natural log of the regularized upper incomplete gamma function Q(a, x) = Γ(a, x) / Γ(a), a > 0, x ≥ 0.
+// Computed in log space so tails far below 1e-308 keep their ranking. Series for x < a+1, Lentz continued
+// fraction otherwise (both converge to ~1e-15 relative). Throws std::invalid_argument for a ≤ 0 or x < 0.
+double log_gamma_q(double a, double x);
+double gamma_q(double a, double x);
+// Survival function of the chi-square distribution with k degrees of freedom: P(X > x).
+double chi2_sf(double x, double k);
+// log10 of the same, for ranking scores (−log10 p).
+double chi2_log10_sf(double x, double k);
+
+// Pooled overlapping Allan variance over several contiguous series sampled at tau0_s. Series shorter
+// than 2m+1 samples do not contribute at cluster size m. Cluster sizes are octaves 1, 2, 4, ...
+class AllanAccumulator {
+ public:
+  explicit AllanAccumulator(double tau0_s = 1.0) : tau0_s_(tau0_s) {}
+  void set_tau0(double tau0_s) { tau0_s_ = tau0_s; }
+  double tau0() const { return tau0_s_; }
+  // Adds one contiguous series. O(L log L).
+  void add_series(const std::vector<double>& x);
+  struct Point {
+    double tau_s;
+    double avar;   // Allan variance (unit²)
+    double edf;    // equivalent degrees of freedom of the estimate (white-noise approximation, Howe)
+    long long terms;
+  };
+  // Points with at least min_terms squared differences.
+  std::vector<Point> points(long long min_terms = 4) const;
+
+ private:
+  double tau0_s_;
+  std::vector<double> num_, edf_;
+  std::vector<long long> cnt_;
+};
+
+// IEEE Std 952 Annex C noise terms of an Allan variance curve:
+//   AVAR(τ) = 3Q²/τ² + N²/τ + (2 ln2/π) B² + K² τ / 3
+// Q quantization (unit), N white noise density (unit/√Hz), B bias instability (unit, so that the flat
+// Allan deviation floor is 0.664 B), K rate random walk (unit·√Hz).
+struct NoiseTerms {
+  double Q = 0, N = 0, B = 0, K = 0;
+  double avar(double tau_s) const;
+};
+struct NoiseFit {
+  NoiseTerms terms;
+  double sigma[4] = {0, 0, 0, 0};  // 1σ of Q, N, B, K (from the linearised fit; 0 when the term is inactive)
+  double chi2 = 0.0;               // Σ edf·(AVAR_meas − AVAR_fit)² / AVAR_fit² at the optimum
+  int n_points = 0;
+};
+// Non-negative weighted least squares over the enabled terms (mask bit 0 Q, 1 N, 2 B, 3 K): every subset of
+// the enabled terms is tried and the best feasible one kept (4 terms -> 16 small solves).
+NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsigned enabled_mask = 0xF);
+
+}  // namespace imuforge::diagnosis

@@ -1,0 +1,759 @@
+#include "host/eol/runner.h"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "firmware/common/crc32.h"
+#include "host/eol/journal.h"
+#include "host/eol/passfail.h"
+#include "host/eol/progress.h"
+#include "host/eol/report.h"
+#include "host/eol/settle.h"
+#include "host/io/log.h"
+#include "host/model/sensor_model.h"
+#include "host/records/store.h"
+#include "host/sim/earth.h"
+#include "host/sim/table.h"
+#include "host/solver/sha256.h"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace imuforge::eol {
+
+std::string step_key(int phase, int step) { return "p" + std::to_string(phase) + "s" + std::to_string(step); }
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// Wraps a port call so any failure becomes a PeerError naming what was being done.
+template <typename F>
+auto peer(const std::string& what, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const PeerError&) {
+    throw;
+  } catch (const SimulatedCrash&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw PeerError(what + ": " + e.what());
+  }
+}
+
+sim::TableGeometry geometry_of(const sim::Campaign& c) {
+  // See the eol -> sim request: mount_rotation_deg is the IMU's attitude in the platform frame.
+  sim::TableGeometry g;
+  g.n_axes = static_cast<int>(c.axes.size());
+  for (std::size_t i = 0; i < c.axes.size() && i < 3; ++i) {
+    g.axes[i].name = c.axes[i].name;
+    g.axes[i].axis_nominal = sim::axis_from_name(c.axes[i].axis);
+  }
+  g.mount.C_imu_plat =
+      sim::rotation_zyx_deg(c.mount_rotation_deg[0], c.mount_rotation_deg[1], c.mount_rotation_deg[2]).transpose();
+  g.mount.lever_arm_m = Eigen::Vector3d(c.lever_arm_m[0], c.lever_arm_m[1], c.lever_arm_m[2]);
+  return g;
+}
+
+struct Kin {
+  sim::TableGeometry geom;
+  Eigen::Vector3d g_ned, wie_ned;
+  sim::ImuKinematics at(const std::array<double, 3>& angle_deg, const std::array<double, 3>& rate_dps) const {
+    sim::TableState st;
+    for (int i = 0; i < 3; ++i) {
+      st.angle_rad[static_cast<std::size_t>(i)] = angle_deg[static_cast<std::size_t>(i)] * kDeg;
+      st.rate_rad_s[static_cast<std::size_t>(i)] = rate_dps[static_cast<std::size_t>(i)] * kDeg;
+    }
+    return sim::table_kinematics(geom, st, g_ned, wie_ned);
+  }
+};
+
+bool is_vertical_rotation(const Kin& k, const std::array<double, 3>& angle_deg, const std::array<double, 3>& rate_dps) {
+  // The reference f stays constant in a rate run when the rotation is about the local vertical: check f
+  // a quarter turn later.
+  auto a = k.at(angle_deg, rate_dps);
+  std::array<double, 3> later = angle_deg;
+  for (int i = 0; i < 3; ++i) later[static_cast<std::size_t>(i)] += 90.0 * (rate_dps[static_cast<std::size_t>(i)] != 0 ? 1 : 0);
+  auto b = k.at(later, rate_dps);
+  return (a.f_mps2 - b.f_mps2).norm() < 1e-3;
+}
+
+double now_wall() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string file_sha(const std::string& p) { return solver::sha256_file_hex(p); }
+
+// Steps' table command and label.
+struct StepInfo {
+  int phase = 0, step = 0;
+  std::string key, label;
+  sim::CampaignStep::Kind kind = sim::CampaignStep::Kind::kPosition;
+  std::array<double, 3> position_deg{};  // the table position during the dwell (for rates: the start)
+  std::array<double, 3> rate_dps{};
+  double dwell_s = 0.0;
+  bool accel_ok = true;
+};
+
+}  // namespace
+
+Runner::Runner(RunOptions opt, Bench& bench, Device& device, TableOps& table)
+    : opt_(std::move(opt)), bench_(bench), dev_(device), table_(table) {}
+
+RunResult Runner::run() {
+  const double wall0 = now_wall();
+  RunResult res;
+  if (opt_.out_dir.empty()) throw std::invalid_argument("--out DIR is required");
+  const fs::path out = fs::absolute(opt_.out_dir);
+  const fs::path jpath = out / "journal.log";
+
+  // ---- resume: the journal's run_start carries the inputs ---------------------------------------
+  JournalContents jc;
+  std::unique_ptr<Journal> journal;
+  if (opt_.resume) {
+    if (!fs::exists(jpath)) throw std::invalid_argument("--resume: no journal at " + jpath.string());
+    journal = std::make_unique<Journal>(Journal::open_existing(jpath.string(), &jc));
+    if (jc.entries.empty() || jc.entries[0]["type"] != "run_start")
+      throw JournalError("journal " + jpath.string() + ": first entry is not run_start");
+    const json& s0 = jc.entries[0];
+    if (opt_.campaign_path.empty()) opt_.campaign_path = s0.value("campaign_path", "");
+    if (opt_.station_path.empty()) opt_.station_path = s0.value("station_path", "");
+    if (opt_.serial.empty()) opt_.serial = s0.value("serial", "");
+    if (opt_.db.empty()) opt_.db = s0.value("db", "");
+    opt_.early_stop = opt_.early_stop && s0.value("early_stop", true);
+  } else if (fs::exists(jpath)) {
+    throw std::invalid_argument(out.string() + " already holds a run (journal.log): use --resume, or a new --out");
+  }
+  if (opt_.campaign_path.empty() || opt_.station_path.empty() || opt_.serial.empty())
+    throw std::invalid_argument("--campaign, --station and --serial are required");
+
+  sim::Campaign camp;
+  try {
+    camp = sim::load_campaign(opt_.campaign_path);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(std::string("campaign: ") + e.what());
+  }
+  StationConfig st = load_station(opt_.station_path);
+  if (st.model_path.empty()) throw std::invalid_argument("station " + opt_.station_path + ": \"model\" (solver model file) is required");
+  std::string model_path = fs::path(st.model_path).is_absolute() ? st.model_path : (fs::path(st.dir) / st.model_path).string();
+  model::ModelSpec spec;
+  try {
+    spec = model::load_model_spec(model_path);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(std::string("model: ") + e.what());
+  }
+  const std::string campaign_sha = file_sha(opt_.campaign_path);
+  const std::string station_sha = file_sha(opt_.station_path);
+  std::string db = !opt_.db.empty() ? opt_.db : st.db;
+  if (!records::is_postgres_url(db) && !fs::path(db).is_absolute()) db = (out / db).string();
+  res.db = db;
+
+  // ---- the schedule ---------------------------------------------------------------------------
+  Kin kin;
+  kin.geom = geometry_of(camp);
+  sim::Site site{camp.latitude_deg, camp.height_m};
+  kin.g_ned = sim::gravity_ned(site);
+  kin.wie_ned = sim::earth_rate_ned(site);
+  std::vector<std::vector<StepInfo>> plan(camp.phases.size());
+  int total_steps = 0;
+  for (std::size_t p = 0; p < camp.phases.size(); ++p) {
+    const auto& ph = camp.phases[p];
+    std::array<double, 3> pos{};
+    if (ph.kind == sim::CampaignPhase::Kind::kRamp) {
+      StepInfo si;
+      si.phase = static_cast<int>(p);
+      si.key = step_key(si.phase, 0);
+      si.label = ph.label.empty() ? "ramp" : ph.label;
+      si.kind = sim::CampaignStep::Kind::kSoak;
+      si.dwell_s = 0;  // until the chamber reaches the setpoint
+      plan[p].push_back(si);
+      ++total_steps;
+      continue;
+    }
+    for (std::size_t s = 0; s < ph.steps.size(); ++s) {
+      const auto& cs = ph.steps[s];
+      StepInfo si;
+      si.phase = static_cast<int>(p);
+      si.step = static_cast<int>(s);
+      si.key = step_key(si.phase, si.step);
+      si.label = cs.label.empty() ? si.key : cs.label;
+      si.kind = cs.kind;
+      si.dwell_s = cs.dwell_s;
+      switch (cs.kind) {
+        case sim::CampaignStep::Kind::kPosition: pos = cs.position_deg; si.position_deg = pos; break;
+        case sim::CampaignStep::Kind::kRate:
+          si.position_deg = pos;
+          si.rate_dps = cs.rate_dps;
+          si.accel_ok = is_vertical_rotation(kin, pos, cs.rate_dps);
+          break;
+        case sim::CampaignStep::Kind::kSoak: si.position_deg = pos; break;
+        default:
+          throw std::invalid_argument("campaign " + opt_.campaign_path + ": phases[" + std::to_string(p) + "].steps[" +
+                                      std::to_string(s) + "]: step kind not supported on a station (only position, "
+                                      "rate, soak): " + si.label);
+      }
+      if (!(si.dwell_s > 0)) throw std::invalid_argument("campaign: " + si.key + " has no dwell_s");
+      plan[p].push_back(si);
+      ++total_steps;
+    }
+  }
+  res.segments_total = total_steps;
+  res.schedule_time_s = camp.nominal_duration_s();
+
+  // ---- tracker, specs --------------------------------------------------------------------------
+  Tracker tracker(spec);
+  tracker.set_noise(st.accel_noise_mps2, st.gyro_noise_rad_s);
+  const int n = tracker.size();
+  Eigen::VectorXd sigma_spec = Eigen::VectorXd::Zero(n);
+  bool have_spec = false;
+  for (int i = 0; i < n; ++i) {
+    const ParamLimit* l = st.limit_for(tracker.names()[static_cast<std::size_t>(i)]);
+    if (l && l->sigma_max > 0) {
+      sigma_spec[i] = l->sigma_max;
+      have_spec = true;
+    }
+  }
+  const bool early = opt_.early_stop && st.early_stop && have_spec;
+
+  // ---- the device -------------------------------------------------------------------------------
+  DeviceInfo info = peer("CAN identify", [&] { return dev_.identify(); });
+  if (info.serial != opt_.serial)
+    throw std::invalid_argument("device on " + st.can_bus + " identifies as serial '" + info.serial + "', not --serial '" +
+                                opt_.serial + "'");
+  if (!(info.accel_lsb_mps2 > 0) || !(info.gyro_lsb_rad_s > 0))
+    throw PeerError("device " + info.serial + " reports no accelerometer/gyro LSB");
+
+  io::LogMeta meta;
+  meta.serial = info.serial;
+  meta.sample_rate_hz = st.stream_rate_hz;
+  meta.accel_lsb_mps2 = info.accel_lsb_mps2;
+  meta.gyro_lsb_rad_s = info.gyro_lsb_rad_s;
+  meta.latitude_deg = camp.latitude_deg;
+  meta.height_m = camp.height_m;
+  meta.gravity_mps2 = sim::normal_gravity_mps2(site);
+  meta.set("source", "imuforge-run");
+  meta.set("campaign", camp.name);
+  meta.set("station", st.name);
+
+  fs::create_directories(out / "segments");
+  if (!journal) {
+    journal = std::make_unique<Journal>(Journal::create(jpath.string()));
+    journal->append({{"type", "run_start"},
+                     {"serial", opt_.serial},
+                     {"campaign_path", fs::absolute(opt_.campaign_path).string()},
+                     {"campaign_sha256", campaign_sha},
+                     {"station_path", fs::absolute(opt_.station_path).string()},
+                     {"station_sha256", station_sha},
+                     {"db", opt_.db},
+                     {"early_stop", opt_.early_stop},
+                     {"software_version", IMUFORGE_VERSION},
+                     {"started_utc", records::utc_now_iso8601()}});
+    jc.entries.push_back(json{{"type", "run_start"}, {"started_utc", records::utc_now_iso8601()}});
+  } else {
+    const json& s0 = jc.entries[0];
+    if (s0.value("campaign_sha256", "") != campaign_sha)
+      throw std::invalid_argument("--resume: the campaign file changed since the run started (" + opt_.campaign_path + ")");
+    if (s0.value("station_sha256", "") != station_sha)
+      throw std::invalid_argument("--resume: the station file changed since the run started (" + opt_.station_path + ")");
+    if (s0.value("serial", "") != opt_.serial)
+      throw std::invalid_argument("--resume: the run is for serial " + s0.value("serial", "") + ", not " + opt_.serial);
+  }
+  const std::string started_utc = jc.entries[0].value("started_utc", records::utc_now_iso8601());
+
+  // ---- replay what is safe ------------------------------------------------------------------------
+  std::set<std::string> done;
+  std::vector<std::string> seg_files;  // collection order
+  std::vector<bool> phase_done(camp.phases.size(), false);
+  bool collection_done = false, early_stopped = false;
+  double run_clock_base = 0.0;  // run time (fixture seconds) already spent by earlier processes
+  json finish;                  // finish-stage entries by type
+  ReportData rd;
+  rd.names = tracker.names();
+  rd.spec = sigma_spec;
+  for (const auto& e : jc.entries) {
+    const std::string type = e["type"];
+    if (type == "segment_done") {
+      std::string file = (out / e.at("file").get<std::string>()).string();
+      if (!fs::exists(file) || file_sha(file) != e.at("sha256").get<std::string>())
+        throw JournalError("journal says segment " + e.at("key").get<std::string>() + " is safe in " + file +
+                           " but the file is missing or its SHA-256 differs");
+      io::LogReader r(file);
+      std::vector<io::LogRow> rows;
+      io::LogRow row;
+      while (r.next(row)) rows.push_back(row);
+      tracker.add_segment(r.meta(), rows, static_cast<int>(seg_files.size()), e.value("label", ""));
+      seg_files.push_back(file);
+      done.insert(e.at("key").get<std::string>());
+      run_clock_base = std::max(run_clock_base, e.value("t_end_s", 0.0));
+      if (!rows.empty()) {
+        rd.imu_temp_C.push_back({rows.front().t_s, rows.front().temp_C});
+        rd.chamber_temp_C.push_back({rows.front().t_s, rows.front().chamber_C});
+      }
+      rd.sigma_t_s.push_back(e.value("t_end_s", 0.0));
+      rd.sigma_hist.push_back(tracker.estimate().sigma());
+      ++res.segments_resumed;
+    } else if (type == "plateau_done") {
+      phase_done[e.at("phase").get<std::size_t>()] = true;
+    } else if (type == "clock") {
+      run_clock_base = std::max(run_clock_base, e.value("t_s", 0.0));
+    } else if (type == "collection_done") {
+      collection_done = true;
+      early_stopped = e.value("early_stop", false);
+      run_clock_base = std::max(run_clock_base, e.value("t_s", 0.0));
+    } else if (type != "run_start") {
+      finish[type] = e;
+    }
+  }
+  if (finish.contains("finished")) {
+    const json& f = finish["finished"];
+    res.pass = f.value("pass", false);
+    res.reasons = f.value("reasons", std::vector<std::string>{});
+    res.record_id = f.value("record_id", "");
+    res.report_path = (out / "report.html").string();
+    res.early_stopped = early_stopped;
+    res.campaign_time_s = run_clock_base;
+    if (opt_.progress) std::fprintf(opt_.progress, "run in %s already finished: %s\n", out.c_str(), res.pass ? "PASS" : "FAIL");
+    return res;
+  }
+  if (opt_.progress && opt_.resume)
+    std::fprintf(opt_.progress, "resume %s: %d segment(s) safe, not re-collected%s\n", out.c_str(), res.segments_resumed,
+                 jc.torn_tail ? " (torn last journal line dropped)" : "");
+
+  // Run clock: fixture seconds since the run started, continuous across resumes.
+  const double bench_t0 = peer("fixture clock", [&] { return bench_.time_s(); });
+  auto run_clock = [&] { return run_clock_base + (bench_.time_s() - bench_t0); };
+  int collected_here = 0;
+  double last_air_C = NAN, temp_offset_C = 0.0;
+
+  auto progress = [&](int phase, const std::string& label, bool table) {
+    if (!opt_.progress) return;
+    ProgressState ps;
+    ps.phase = phase;
+    ps.phases = static_cast<int>(camp.phases.size());
+    ps.setpoint_C = camp.phases[static_cast<std::size_t>(phase)].setpoint_C;
+    ps.done_steps = static_cast<int>(done.size());
+    ps.total_steps = total_steps;
+    ps.label = label;
+    ps.wall_elapsed_s = now_wall() - wall0;
+    ps.fixture_elapsed_s = run_clock() - run_clock_base;
+    double left = 0;
+    for (const auto& ph : plan)
+      for (const auto& s : ph)
+        if (!done.count(s.key)) left += s.dwell_s + 2.0;
+    for (std::size_t p = static_cast<std::size_t>(phase) + 1; p < camp.phases.size(); ++p) left += st.settle_window_s;
+    ps.fixture_remaining_s = left;
+    ps.names = &tracker.names();
+    ps.sigma = tracker.estimate().sigma();
+    ps.spec = sigma_spec;
+    std::fprintf(opt_.progress, "%s\n", progress_line(ps).c_str());
+    if (table) std::fprintf(opt_.progress, "%s", sigma_table(ps).c_str());
+    std::fflush(opt_.progress);
+  };
+
+  auto wait_table = [&](const std::string& what) {
+    const double t0 = bench_.time_s();
+    for (;;) {
+      TableReading r = peer("rate table status", [&] { return bench_.table(); });
+      if (r.fault) throw PeerError("rate table fault while " + what + ": " + r.fault_text);
+      if (r.in_position && r.settled) return r;
+      if (bench_.time_s() - t0 > st.table_timeout_s)
+        throw PeerError("rate table not in position and settled within " + std::to_string(st.table_timeout_s) +
+                        " s while " + what);
+      bench_.wait(0.1);
+    }
+  };
+
+  // Waits, from the IMU's own temperature, until the plateau is reached and settled.
+  auto settle_temperature = [&](int phase, double setpoint_C) {
+    SlopeSettleDetector det(st.settle_window_s, st.settle_slope_C_per_min / 60.0);
+    double t_first = NAN, next_check = 0, air = NAN;
+    bool ok = false, timeout = false;
+    peer("stream (settling)", [&] {
+      return dev_.stream(st.stream_rate_hz, [&](const ImuSample& s) {
+        if (std::isnan(t_first)) t_first = s.t_s;
+        det.add(s.t_s, s.temp_C);
+        double el = s.t_s - t_first;
+        if (el >= next_check) {
+          next_check = el + 1.0;
+          air = bench_.chamber_air_C();
+          double rc = run_clock();
+          rd.imu_temp_C.push_back({rc, s.temp_C});
+          rd.chamber_temp_C.push_back({rc, air});
+          if (det.settled() && std::fabs(air - setpoint_C) <= st.settle_band_C &&
+              std::fabs(det.mean() - air) <= st.settle_band_C) {
+            ok = true;
+            return false;
+          }
+          if (el > st.settle_timeout_s) {
+            timeout = true;
+            return false;
+          }
+        }
+        return true;
+      });
+    });
+    if (!ok || timeout)
+      throw PeerError("plateau " + std::to_string(phase) + " (" + std::to_string(setpoint_C) + " C): IMU temperature did not settle within " +
+                      std::to_string(st.settle_timeout_s) + " s (slope " + std::to_string(det.slope_per_s() * 60) +
+                      " C/min, chamber " + std::to_string(air) + " C)");
+    last_air_C = air;
+    temp_offset_C = det.mean() - setpoint_C;
+    journal->append({{"type", "plateau_settled"}, {"phase", phase}, {"temp_C", det.mean()}, {"air_C", air},
+                     {"t_s", run_clock()}});
+  };
+
+  // Collects one step's segment, makes it safe, folds it into the tracker.
+  auto collect = [&](const StepInfo& si, const std::string& seg_name, bool calibration,
+                     std::vector<io::LogRow>* rows_out, std::vector<ImuSample>* raw_out, double dwell_override) {
+    if (si.kind == sim::CampaignStep::Kind::kPosition) {
+      peer("rate table command", [&] { bench_.command_rate({0, 0, 0}); bench_.command_position(si.position_deg); return 0; });
+    } else if (si.kind == sim::CampaignStep::Kind::kRate) {
+      peer("rate table command", [&] { bench_.command_rate(si.rate_dps); return 0; });
+    }
+    TableReading r0 = wait_table("reaching " + si.label);
+    last_air_C = peer("chamber status", [&] { return bench_.chamber_air_C(); });
+    const double t_start = run_clock();
+    const double dwell = dwell_override > 0 ? dwell_override : si.dwell_s;
+    std::string file = (out / "segments" / (seg_name + ".bin")).string();
+    io::LogWriter w(file, meta, io::LogEncoding::kBinary);
+    std::vector<io::LogRow> rows;
+    double t_first = NAN;
+    StreamStats ss = peer("CAN stream", [&] {
+      return dev_.stream(st.stream_rate_hz, [&](const ImuSample& s) {
+        if (std::isnan(t_first)) t_first = s.t_s;
+        double el = s.t_s - t_first;
+        std::array<double, 3> ang = r0.angle_deg;
+        for (int i = 0; i < 3; ++i) ang[static_cast<std::size_t>(i)] += r0.rate_dps[static_cast<std::size_t>(i)] * el;
+        auto k = kin.at(ang, r0.rate_dps);
+        io::LogRow row;
+        row.t_s = t_start + el;
+        row.segment = static_cast<std::int32_t>(seg_files.size());
+        row.temp_C = s.temp_C;
+        row.chamber_C = last_air_C;
+        row.has_ref = true;
+        for (int j = 0; j < 3; ++j) {
+          row.f_ref[j] = k.f_mps2[j];
+          row.w_ref[j] = k.w_rad_s[j];
+        }
+        for (int j = 0; j < 6; ++j) row.raw[j] = s.raw[j];
+        w.write(row);
+        rows.push_back(row);
+        if (raw_out) raw_out->push_back(s);
+        return el + 1.0 / st.stream_rate_hz < dwell;
+      });
+    });
+    w.sync();
+    w.close();
+    const double t_end = run_clock();
+    if (rows.size() < 2) throw PeerError("CAN stream: no samples during " + si.label);
+    if (calibration) {
+      std::string sha = file_sha(file);
+      journal->append({{"type", "segment_done"}, {"key", si.key}, {"phase", si.phase}, {"step", si.step},
+                       {"label", si.label}, {"index", seg_files.size()}, {"file", "segments/" + seg_name + ".bin"},
+                       {"sha256", sha}, {"rows", rows.size()}, {"t_start_s", t_start}, {"t_end_s", t_end},
+                       {"lost", ss.lost}, {"duplicated", ss.duplicated}, {"reordered", ss.reordered}});
+      tracker.add_segment(meta, rows, static_cast<int>(seg_files.size()), si.label);
+      seg_files.push_back(file);
+      done.insert(si.key);
+      rd.imu_temp_C.push_back({t_start, rows.front().temp_C});
+      rd.chamber_temp_C.push_back({t_start, last_air_C});
+      rd.sigma_t_s.push_back(t_end);
+      rd.sigma_hist.push_back(tracker.estimate().sigma());
+      ++res.segments_collected;
+      ++collected_here;
+      if (opt_.crash_after_segments > 0 && collected_here >= opt_.crash_after_segments) throw SimulatedCrash();
+    }
+    if (rows_out) *rows_out = std::move(rows);
+    return ss;
+  };
+
+  // σ meets spec for every parameter that has one (and every parameter is observable).
+  auto meets = [&](const Eigen::VectorXd& sig) {
+    for (int i = 0; i < n; ++i) {
+      if (!std::isfinite(sig[i])) return false;
+      if (sigma_spec[i] > 0 && sig[i] > sigma_spec[i]) return false;
+    }
+    return true;
+  };
+  // Σ log(max(σ/spec, 1)) with unobservable parameters heavily penalised: 0 ⇔ spec met.
+  auto badness = [&](const Eigen::VectorXd& sig) {
+    double b = 0;
+    for (int i = 0; i < n; ++i) {
+      if (!std::isfinite(sig[i]) || sig[i] > 1e12) b += 100;
+      else if (sigma_spec[i] > 0) b += std::log(std::max(sig[i] / sigma_spec[i], 1.0));
+    }
+    return b;
+  };
+  std::map<std::pair<int, int>, Eigen::MatrixXd> info_cache;
+  auto step_info = [&](int p, int s, double T_C) -> const Eigen::MatrixXd& {
+    auto key = std::make_pair(p, s);
+    auto it = info_cache.find(key);
+    if (it != info_cache.end()) return it->second;
+    const StepInfo& si = plan[static_cast<std::size_t>(p)][static_cast<std::size_t>(s)];
+    auto k = kin.at(si.position_deg, si.rate_dps);
+    return info_cache[key] =
+               tracker.predicted_information(k.f_mps2, k.w_rad_s, T_C, si.dwell_s, st.stream_rate_hz, si.accel_ok);
+  };
+
+  // ---- collection ----------------------------------------------------------------------------------
+  if (!collection_done) {
+    for (std::size_t p = 0; p < camp.phases.size() && !early_stopped; ++p) {
+      if (phase_done[p]) continue;
+      const auto& ph = camp.phases[p];
+      const int pi = static_cast<int>(p);
+      if (early && tracker.segments() > 0 && meets(tracker.estimate().sigma())) {
+        early_stopped = true;
+        break;
+      }
+      if (ph.kind == sim::CampaignPhase::Kind::kRamp) {
+        const StepInfo& si = plan[p][0];
+        if (!done.count(si.key)) {
+          peer("chamber", [&] { bench_.set_chamber(ph.setpoint_C, ph.rate_C_per_min); return 0; });
+          double from = std::isnan(last_air_C) ? camp.initial_C : last_air_C;
+          double dur = std::fabs(ph.setpoint_C - from) / std::max(1e-6, ph.rate_C_per_min) * 60.0;
+          collect(si, si.key, true, nullptr, nullptr, std::max(dur, 10.0));
+          progress(pi, si.label, false);
+        }
+      } else {
+        peer("chamber", [&] { bench_.set_chamber(ph.setpoint_C, camp.ramp_limit_C_per_min); return 0; });
+        settle_temperature(pi, ph.setpoint_C);
+        info_cache.clear();  // temperatures of the remaining plateaus are re-predicted from this one
+        std::vector<int> todo;
+        for (std::size_t s = 0; s < plan[p].size(); ++s)
+          if (!done.count(plan[p][s].key)) todo.push_back(static_cast<int>(s));
+        std::vector<int> pattern;
+        for (std::size_t s = 0; s < plan[p].size(); ++s)
+          if (done.count(plan[p][s].key)) pattern.push_back(static_cast<int>(s));
+        // Later plateaus: the same step indices (campaigns repeat their step list per plateau).
+        std::vector<std::size_t> later;
+        for (std::size_t q = p + 1; q < camp.phases.size(); ++q)
+          if (camp.phases[q].kind == sim::CampaignPhase::Kind::kPlateau) later.push_back(q);
+        auto projected = [&](const std::vector<int>& pat) {
+          Eigen::MatrixXd h = tracker.information();
+          for (std::size_t q : later)
+            for (int s : pat)
+              if (static_cast<std::size_t>(s) < plan[q].size())
+                h += step_info(static_cast<int>(q), s, camp.phases[q].setpoint_C + temp_offset_C);
+          return h;
+        };
+        while (!todo.empty()) {
+          std::size_t pick = 0;
+          if (early) {
+            Eigen::VectorXd now_sig = tracker.estimate().sigma();
+            if (tracker.segments() > 0 && meets(now_sig)) {
+              early_stopped = true;
+              break;
+            }
+            if (!later.empty() && !pattern.empty() && meets(tracker.sigma_of(projected(pattern)))) break;
+            // Greedy design: the step that, repeated on the later plateaus, brings the spec closest.
+            double best = std::numeric_limits<double>::infinity();
+            for (std::size_t c = 0; c < todo.size(); ++c) {
+              std::vector<int> pat = pattern;
+              pat.push_back(todo[c]);
+              Eigen::MatrixXd h = projected(pat) + step_info(pi, todo[c], ph.setpoint_C + temp_offset_C);
+              double b = badness(tracker.sigma_of(h));
+              if (b < best - 1e-12) {
+                best = b;
+                pick = c;
+              }
+            }
+          }
+          const StepInfo& si = plan[p][static_cast<std::size_t>(todo[pick])];
+          collect(si, si.key, true, nullptr, nullptr, 0.0);
+          pattern.push_back(todo[pick]);
+          todo.erase(todo.begin() + static_cast<std::ptrdiff_t>(pick));
+          progress(pi, si.label, false);
+        }
+        if (early_stopped) break;
+      }
+      journal->append({{"type", "plateau_done"}, {"phase", pi}, {"t_s", run_clock()}});
+      phase_done[p] = true;
+      progress(pi, "plateau done", true);
+    }
+    if (!early_stopped && early && meets(tracker.estimate().sigma())) early_stopped = done.size() < static_cast<std::size_t>(total_steps);
+    peer("rate table stop", [&] { bench_.command_rate({0, 0, 0}); return 0; });
+    journal->append({{"type", "collection_done"}, {"early_stop", early_stopped}, {"t_s", run_clock()},
+                     {"segments", seg_files.size()}});
+    run_clock_base = run_clock();
+  }
+  res.early_stopped = early_stopped;
+  res.campaign_time_s = collection_done ? run_clock_base : run_clock_base;
+
+  // ---- finish: merged log, solve, table, flash, verify, record, report -------------------------------
+  const std::string log_path = (out / "log.bin").string();
+  std::string log_sha;
+  if (finish.contains("log_merged") && fs::exists(log_path) && file_sha(log_path) == finish["log_merged"].value("sha256", "")) {
+    log_sha = finish["log_merged"]["sha256"];
+  } else {
+    io::LogMeta m = meta;
+    m.set("segments", std::to_string(seg_files.size()));
+    io::LogWriter w(log_path, m, io::LogEncoding::kBinary);
+    for (const auto& f : seg_files) {
+      io::LogReader r(f);
+      io::LogRow row;
+      while (r.next(row)) w.write(row);
+    }
+    w.sync();
+    w.close();
+    log_sha = file_sha(log_path);
+    journal->append({{"type", "log_merged"}, {"file", "log.bin"}, {"sha256", log_sha}});
+  }
+
+  // The recursive estimate equals the batch fixture-mode solution at the end (square-root information
+  // filter without process noise: host/solver/srif.h); it is the batch solve of the merged log.
+  solver::Estimate est = tracker.estimate();
+  res.estimate = est;
+  Eigen::VectorXd sig = est.sigma();
+  std::vector<std::string> extra_reasons;
+  records::CalibrationRecord& rec = res.record;
+  for (int i = 0; i < n; ++i)
+    rec.parameters.push_back({est.names[static_cast<std::size_t>(i)], est.value[i], sig[i], 0, 0, true});
+  bool solvable = true;
+  for (int i = 0; i < n; ++i) solvable = solvable && std::isfinite(sig[i]);
+  {
+    json cal;
+    cal["parameters"] = json::array();
+    for (int i = 0; i < n; ++i)
+      cal["parameters"].push_back({{"name", est.names[static_cast<std::size_t>(i)]},
+                                   {"value", std::isfinite(est.value[i]) ? est.value[i] : 0.0},
+                                   {"sigma", std::isfinite(sig[i]) ? sig[i] : -1.0}});
+    if (solvable) {
+      json cov = json::array();
+      for (int i = 0; i < n; ++i) {
+        json row = json::array();
+        for (int j = 0; j < n; ++j) row.push_back(est.covariance(i, j));
+        cov.push_back(row);
+      }
+      cal["covariance"] = cov;
+    }
+    cal["model"] = model::model_spec_to_json(spec);
+    cal["provenance"] = {{"log_sha256", log_sha}, {"software_version", IMUFORGE_VERSION},
+                         {"time_utc", records::utc_now_iso8601()}, {"method", "srif (fixture mode)"}};
+    std::ofstream(out / "cal.json") << cal.dump(2) << "\n";
+  }
+  if (!solvable) extra_reasons.push_back("solve: some parameters are not observable from the collected segments");
+
+  std::vector<std::uint8_t> blob, readback;
+  std::uint32_t crc = 0;
+  if (solvable) {
+    std::uint32_t seq = info.table_seq + 1;
+    if (finish.contains("flashed")) seq = finish["flashed"].value("seq", seq);
+    blob = peer("table build", [&] { return table_.build(est, tracker.T_ref_C(), info.serial, seq); });
+    crc = fw::crc32(blob.data(), blob.size());
+    { std::ofstream(out / "table.bin", std::ios::binary).write(reinterpret_cast<const char*>(blob.data()), static_cast<std::streamsize>(blob.size())); }
+    if (!finish.contains("flashed")) {
+      peer("CAN flash", [&] { dev_.flash_table(blob, seq); return 0; });
+    }
+    readback = peer("CAN read table", [&] { return dev_.read_table(); });
+    bool same = readback == blob;
+    if (!finish.contains("flashed"))
+      journal->append({{"type", "flashed"}, {"seq", seq}, {"crc32", crc}, {"bytes", blob.size()}, {"readback_ok", same}});
+    rec.verification.push_back({"readback", same ? 0.0 : 1.0, 0.5, same});
+    if (!same) extra_reasons.push_back("flash: the table read back differs from the table written");
+
+    // Post-calibration check with the firmware kernel and the READ-BACK table.
+    int vi = 0;
+    for (const auto& vp : st.verification) {
+      std::string key = "verify" + std::to_string(vi);
+      StepInfo si;
+      si.key = key;
+      si.label = vp.label;
+      bool is_rate = vp.rate_dps[0] != 0 || vp.rate_dps[1] != 0 || vp.rate_dps[2] != 0;
+      si.kind = is_rate ? sim::CampaignStep::Kind::kRate : sim::CampaignStep::Kind::kPosition;
+      si.position_deg = vp.position_deg;
+      si.rate_dps = vp.rate_dps;
+      si.dwell_s = vp.dwell_s;
+      std::array<double, 6> mean_after{};
+      if (finish.contains("verified_" + key)) {
+        auto v = finish["verified_" + key]["after"].get<std::vector<double>>();
+        for (int k = 0; k < 6; ++k) mean_after[static_cast<std::size_t>(k)] = v[static_cast<std::size_t>(k)];
+      } else {
+        if (is_rate) peer("rate table command", [&] { bench_.command_position(vp.position_deg); return 0; }), wait_table("verification start");
+        std::vector<io::LogRow> rows;
+        std::vector<ImuSample> raws;
+        collect(si, key, false, &rows, &raws, 0.0);
+        bool accel_ok = !is_rate || is_vertical_rotation(kin, vp.position_deg, vp.rate_dps);
+        for (std::size_t i = 0; i < rows.size(); ++i) {
+          double o[6];
+          table_.compensate(readback, raws[i], o);
+          for (int k = 0; k < 3; ++k) {
+            mean_after[static_cast<std::size_t>(k)] += o[k] - rows[i].f_ref[k];
+            mean_after[static_cast<std::size_t>(3 + k)] += o[3 + k] - rows[i].w_ref[k];
+          }
+        }
+        for (auto& m : mean_after) m /= static_cast<double>(rows.size());
+        if (!accel_ok) mean_after[0] = mean_after[1] = mean_after[2] = std::nan("");
+        journal->append({{"type", "verified_" + key}, {"label", vp.label},
+                         {"after", std::vector<double>(mean_after.begin(), mean_after.end())}});
+      }
+      static const char* ax[6] = {"accel.x", "accel.y", "accel.z", "gyro.x", "gyro.y", "gyro.z"};
+      for (int k = 0; k < 6; ++k) {
+        double v = mean_after[static_cast<std::size_t>(k)];
+        if (std::isnan(v)) continue;  // accel during a rate run about a tilted axis: no constant reference
+        double lim = k < 3 ? st.verify_accel_mps2 : st.verify_gyro_rad_s;
+        rec.verification.push_back({vp.label + "." + ax[k], v, lim, true});
+      }
+      ++vi;
+    }
+    if (st.verification.empty()) extra_reasons.push_back("station: no verification poses configured");
+    peer("rate table stop", [&] { bench_.command_rate({0, 0, 0}); return 0; });
+  }
+
+  Verdict verdict = evaluate(st, rec.parameters, rec.verification, extra_reasons);
+  rec.pass = verdict.pass;
+  rec.reasons = verdict.reasons;
+  rec.serial = info.serial;
+  rec.station = st.name;
+  rec.fixture = bench_.describe();
+  rec.campaign = camp.name;
+  rec.campaign_sha256 = campaign_sha;
+  rec.software_version = IMUFORGE_VERSION;
+  rec.firmware_version = info.firmware_version;
+  rec.started_utc = started_utc;
+  rec.finished_utc = records::utc_now_iso8601();
+  rec.table_blob = blob;
+  rec.table_crc32 = crc;
+  rec.log_path = log_path;
+  rec.log_sha256 = log_sha;
+  rec.run_dir = out.string();
+  rec.campaign_time_s = res.campaign_time_s;
+  rec.early_stop = early_stopped;
+  if (finish.contains("recorded")) rec.id = finish["recorded"].value("id", "");
+
+  tracker.finalize_residuals(est.value.unaryExpr([](double v) { return std::isfinite(v) ? v : 0.0; }));
+  rd.rec = rec;
+  rd.db = db;
+  rd.residuals = tracker.residuals();
+  rd.schedule_time_s = res.schedule_time_s;
+  rd.segments_total = total_steps;
+  rd.segments_used = static_cast<int>(seg_files.size());
+  rd.segments_resumed = res.segments_resumed;
+  res.report_path = (out / "report.html").string();
+
+  std::string record_error;
+  if (!finish.contains("recorded")) {
+    try {
+      auto store = records::open_store(db);
+      store->ensure_schema();
+      store->insert(rec);
+      journal->append({{"type", "recorded"}, {"id", rec.id}, {"backend", store->backend()}});
+    } catch (const std::exception& e) {
+      record_error = e.what();
+    }
+  }
+  rd.rec = rec;
+  write_report(res.report_path, rd);
+  if (!record_error.empty()) throw PeerError("records: " + record_error + " (report written to " + res.report_path + ")");
+  res.record_id = rec.id;
+  res.pass = verdict.pass;
+  res.reasons = verdict.reasons;
+  journal->append({{"type", "finished"}, {"pass", res.pass}, {"reasons", res.reasons}, {"record_id", rec.id}});
+  return res;
+}
+
+}  // namespace imuforge::eol

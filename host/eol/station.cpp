@@ -1,0 +1,131 @@
+#include "host/eol/station.h"
+
+#include <filesystem>
+#include <fstream>
+
+namespace imuforge::eol {
+
+namespace {
+template <typename T>
+T get_or(const nlohmann::json& j, const char* key, T def, const std::string& where) {
+  if (!j.contains(key)) return def;
+  try {
+    return j.at(key).get<T>();
+  } catch (const std::exception& e) {
+    throw StationError("station: " + where + key + ": " + e.what());
+  }
+}
+
+std::array<double, 3> vec3(const nlohmann::json& j, const std::string& where) {
+  std::array<double, 3> v{};
+  if (!j.is_array() || j.size() > 3) throw StationError("station: " + where + ": expected an array of up to 3 numbers");
+  for (std::size_t i = 0; i < j.size(); ++i) {
+    if (!j[i].is_number()) throw StationError("station: " + where + ": expected numbers");
+    v[i] = j[i].get<double>();
+  }
+  return v;
+}
+}  // namespace
+
+const ParamLimit* StationConfig::limit_for(const std::string& param) const {
+  const ParamLimit* best = nullptr;
+  std::size_t best_len = 0;
+  for (const auto& l : limits) {
+    if (l.pattern == param) return &l;
+    if (!l.pattern.empty() && l.pattern.back() == '*') {
+      std::string prefix = l.pattern.substr(0, l.pattern.size() - 1);
+      if (param.compare(0, prefix.size(), prefix) == 0 && (best == nullptr || prefix.size() >= best_len)) {
+        best = &l;
+        best_len = prefix.size();
+      }
+    }
+  }
+  return best;
+}
+
+StationConfig station_from_json(const nlohmann::json& j, const std::string& dir) {
+  if (!j.is_object()) throw StationError("station: the file must hold a JSON object");
+  StationConfig s;
+  s.dir = dir;
+  s.name = get_or<std::string>(j, "name", s.name, "");
+  if (j.contains("fixtures")) s.fixtures = j["fixtures"];
+  if (j.contains("can")) {
+    const auto& c = j["can"];
+    s.can_bus = get_or<std::string>(c, "bus", s.can_bus, "can.");
+    s.can_node_id = get_or<int>(c, "node_id", s.can_node_id, "can.");
+    s.stream_rate_hz = get_or<double>(c, "stream_rate_hz", s.stream_rate_hz, "can.");
+    s.hmac_key_hex = get_or<std::string>(c, "hmac_key_hex", s.hmac_key_hex, "can.");
+  }
+  if (j.contains("records")) s.db = get_or<std::string>(j["records"], "db", s.db, "records.");
+  s.model_path = get_or<std::string>(j, "model", s.model_path, "");
+  s.sensor_hint = get_or<std::string>(j, "sensor", s.sensor_hint, "");
+  if (j.contains("noise")) {
+    s.accel_noise_mps2 = get_or<double>(j["noise"], "accel_mps2", 0.0, "noise.");
+    s.gyro_noise_rad_s = get_or<double>(j["noise"], "gyro_rad_s", 0.0, "noise.");
+  }
+  if (j.contains("settle")) {
+    const auto& t = j["settle"];
+    s.settle_window_s = get_or<double>(t, "temp_window_s", s.settle_window_s, "settle.");
+    s.settle_slope_C_per_min = get_or<double>(t, "temp_slope_C_per_min", s.settle_slope_C_per_min, "settle.");
+    s.settle_band_C = get_or<double>(t, "temp_band_C", s.settle_band_C, "settle.");
+    s.settle_timeout_s = get_or<double>(t, "temp_timeout_s", s.settle_timeout_s, "settle.");
+    s.table_timeout_s = get_or<double>(t, "table_timeout_s", s.table_timeout_s, "settle.");
+  }
+  s.early_stop = get_or<bool>(j, "early_stop", s.early_stop, "");
+  if (j.contains("limits")) {
+    const auto& l = j["limits"];
+    if (l.contains("parameters")) {
+      if (!l["parameters"].is_object()) throw StationError("station: limits.parameters must be an object");
+      for (auto it = l["parameters"].begin(); it != l["parameters"].end(); ++it) {
+        std::string w = "limits.parameters[\"" + it.key() + "\"].";
+        ParamLimit pl;
+        pl.pattern = it.key();
+        pl.abs_max = get_or<double>(it.value(), "abs", 0.0, w);
+        pl.sigma_max = get_or<double>(it.value(), "sigma", 0.0, w);
+        if (pl.abs_max < 0 || pl.sigma_max < 0) throw StationError("station: " + w + " limits must be >= 0");
+        s.limits.push_back(pl);
+      }
+    }
+    if (l.contains("verification")) {
+      s.verify_accel_mps2 = get_or<double>(l["verification"], "accel_mps2", 0.0, "limits.verification.");
+      s.verify_gyro_rad_s = get_or<double>(l["verification"], "gyro_rad_s", 0.0, "limits.verification.");
+    }
+  }
+  if (j.contains("verification")) {
+    const auto& v = j["verification"];
+    if (!v.is_array()) throw StationError("station: verification must be an array of poses");
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      std::string w = "verification[" + std::to_string(i) + "]";
+      VerificationPose p;
+      p.label = get_or<std::string>(v[i], "label", "ver" + std::to_string(i), w + ".");
+      if (v[i].contains("position_deg")) p.position_deg = vec3(v[i]["position_deg"], w + ".position_deg");
+      if (v[i].contains("rate_dps")) p.rate_dps = vec3(v[i]["rate_dps"], w + ".rate_dps");
+      p.dwell_s = get_or<double>(v[i], "dwell_s", p.dwell_s, w + ".");
+      if (!(p.dwell_s > 0)) throw StationError("station: " + w + ".dwell_s must be > 0");
+      s.verification.push_back(p);
+    }
+  }
+  if (!(s.stream_rate_hz > 0) || s.stream_rate_hz > 4000) throw StationError("station: can.stream_rate_hz out of range");
+  if (!(s.settle_window_s > 0) || !(s.settle_slope_C_per_min > 0))
+    throw StationError("station: settle.temp_window_s and settle.temp_slope_C_per_min must be > 0");
+  return s;
+}
+
+StationConfig load_station(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw StationError("station: cannot open " + path);
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(f);
+  } catch (const std::exception& e) {
+    throw StationError("station " + path + ": malformed JSON: " + e.what());
+  }
+  auto dir = std::filesystem::absolute(path).parent_path().string();
+  try {
+    return station_from_json(j, dir);
+  } catch (const StationError& e) {
+    throw StationError(path + ": " + e.what());
+  }
+}
+
+}  // namespace imuforge::eol

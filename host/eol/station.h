@@ -1,0 +1,66 @@
+// The station file: what one end-of-line station is (fixtures, CAN, records) and what it accepts
+// (limits per parameter and per verification residual). Format: docs/eol.md "Station file";
+// example: docs/examples/station.json.
+#pragma once
+#include <array>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace imuforge::eol {
+
+class StationError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Limits on one parameter, or on every parameter matched by a pattern ("accel.bias.*").
+struct ParamLimit {
+  std::string pattern;   // exact catalog name, or a prefix ending in '*'
+  double abs_max = 0.0;  // |value| must not exceed; 0 = no limit
+  double sigma_max = 0.0;// σ must not exceed (also the early-stop spec); 0 = no limit
+};
+
+struct VerificationPose {
+  std::string label;
+  std::array<double, 3> position_deg{};  // table axis angles
+  std::array<double, 3> rate_dps{};      // nonzero: a constant-rate check
+  double dwell_s = 5.0;
+};
+
+struct StationConfig {
+  std::string name = "station";
+  std::string dir;                 // folder of the station file (relative paths resolve here)
+  nlohmann::json fixtures;         // {"table": {...}, "chamber": {...}} for host/fixture
+  std::string can_bus = "virtual:bench1";
+  int can_node_id = 1;
+  double stream_rate_hz = 100.0;   // sample stream rate requested from the IMU
+  std::string db = "records.sqlite";  // SQLite path (relative: to the run's --out folder) or postgresql:// URL
+  std::string model_path;          // solver model file (model-thermal.json shape)
+  std::string sensor_hint;         // optional sensor-model file for nominal noise (bench-sim's part)
+  // Nominal per-sample noise at stream_rate_hz, used to weight rows and to predict information.
+  double accel_noise_mps2 = 0.0;   // 0 = estimate from the data
+  double gyro_noise_rad_s = 0.0;
+  // Temperature settling, detected from the IMU's own temperature (docs/eol.md "Settling").
+  double settle_window_s = 120.0;        // regression window over the IMU temperature
+  double settle_slope_C_per_min = 0.05;  // |slope| below this over a full window = settled
+  double settle_band_C = 3.0;            // and the IMU within this of the setpoint (plus self-heating)
+  double settle_timeout_s = 7200.0;      // fixture seconds before the plateau fails
+  double table_timeout_s = 120.0;        // fixture seconds for in-position + settled
+  bool early_stop = true;
+  std::vector<ParamLimit> limits;
+  double verify_accel_mps2 = 0.0;        // |compensated − reference| per accel axis; 0 = no check
+  double verify_gyro_rad_s = 0.0;
+  std::vector<VerificationPose> verification;
+  std::string hmac_key_hex;              // device table key ("" = the test/demo key for the serial)
+
+  // The limit that applies to a parameter: exact name first, else the longest matching prefix pattern.
+  // Returns nullptr if none.
+  const ParamLimit* limit_for(const std::string& param) const;
+};
+
+StationConfig station_from_json(const nlohmann::json& j, const std::string& dir);
+StationConfig load_station(const std::string& path);
+
+}  // namespace imuforge::eol

@@ -1,0 +1,172 @@
+#include "host/eol/tracker.h"
+
+#include <cmath>
+#include <limits>
+
+namespace imuforge::eol {
+
+using model::Sensor;
+
+Tracker::Tracker(const model::ModelSpec& spec)
+    : ids_(spec.parameters()), T_ref_C_(spec.T_ref_C), srif_([&] {
+        std::vector<std::string> n;
+        for (auto id : spec.parameters()) n.push_back(model::param_info(id).name);
+        return n;
+      }()) {
+  names_ = srif_.names();
+  if (ids_.empty()) throw std::invalid_argument("tracker: the model estimates no parameters");
+}
+
+void Tracker::set_noise(double a, double g) {
+  fixed_noise_[0] = a;
+  fixed_noise_[1] = g;
+}
+
+double Tracker::accel_noise() const {
+  if (fixed_noise_[0] > 0) return fixed_noise_[0];
+  double q = lsb_[0] > 0 ? lsb_[0] / std::sqrt(12.0) : 1e-3;
+  if (pooled_dof_[0] < 10) return std::max(q, 1e-3);
+  return std::max(q, std::sqrt(pooled_ss_[0] / pooled_dof_[0]));
+}
+double Tracker::gyro_noise() const {
+  if (fixed_noise_[1] > 0) return fixed_noise_[1];
+  double q = lsb_[1] > 0 ? lsb_[1] / std::sqrt(12.0) : 1e-4;
+  if (pooled_dof_[1] < 10) return std::max(q, 1e-4);
+  return std::max(q, std::sqrt(pooled_ss_[1] / pooled_dof_[1]));
+}
+
+bool Tracker::add_segment(const io::LogMeta& meta, const std::vector<io::LogRow>& rows, int segment,
+                          const std::string& label) {
+  const int n = size();
+  lsb_[0] = meta.accel_lsb_mps2;
+  lsb_[1] = meta.gyro_lsb_rad_s;
+  if (!(lsb_[0] > 0) || !(lsb_[1] > 0)) throw std::invalid_argument("tracker: log metadata has no accel/gyro LSB");
+  std::size_t block = static_cast<std::size_t>(std::max(1.0, std::round(0.1 * meta.sample_rate_hz)));
+
+  // Pass 1: noise from within-block scatter, and the segment's temperature slope (Ṫ).
+  std::vector<const io::LogRow*> use;
+  use.reserve(rows.size());
+  for (const auto& r : rows)
+    if (r.has_ref && std::isfinite(r.temp_C)) use.push_back(&r);
+  if (use.size() < 2) return false;
+  double st = 0, sT = 0, stt = 0, stT = 0, m = 0;
+  for (auto* r : use) {
+    st += r->t_s; sT += r->temp_C; stt += r->t_s * r->t_s; stT += r->t_s * r->temp_C; m += 1;
+  }
+  double den = m * stt - st * st;
+  double tdot = den > 0 ? (m * stT - st * sT) / den : 0.0;
+
+  for (std::size_t b0 = 0; b0 + block <= use.size(); b0 += block) {
+    for (int s = 0; s < 2; ++s)
+      for (int j = 0; j < 3; ++j) {
+        double mean = 0;
+        for (std::size_t i = b0; i < b0 + block; ++i) mean += use[i]->raw[3 * s + j] * lsb_[s] - (s ? use[i]->w_ref[j] : use[i]->f_ref[j]);
+        mean /= static_cast<double>(block);
+        double ss = 0;
+        for (std::size_t i = b0; i < b0 + block; ++i) {
+          double e = use[i]->raw[3 * s + j] * lsb_[s] - (s ? use[i]->w_ref[j] : use[i]->f_ref[j]) - mean;
+          ss += e * e;
+        }
+        if (block > 1) {
+          pooled_ss_[s] += ss;
+          pooled_dof_[s] += static_cast<double>(block - 1);
+        }
+      }
+  }
+  const double sigma[2] = {accel_noise(), gyro_noise()};
+  bool accel_ok = true;
+  for (auto* r : use)
+    for (int j = 0; j < 3; ++j) accel_ok = accel_ok && std::fabs(r->f_ref[j] - use.front()->f_ref[j]) < 1e-3;
+
+  // Pass 2: block rows into normal equations.
+  solver::NormalEquations ne(n);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, n);
+  SegmentResidual res;
+  res.segment = segment;
+  res.label = label;
+  res.t_s = use.front()->t_s;
+  res.mean_j = Eigen::MatrixXd::Zero(6, n);
+  double tsum = 0;
+  std::size_t nblocks = 0;
+  for (std::size_t b0 = 0; b0 < use.size(); b0 += block) {
+    std::size_t b1 = std::min(use.size(), b0 + block);
+    double cnt = static_cast<double>(b1 - b0);
+    model::MeasureInput in;
+    Eigen::Vector3d yA = Eigen::Vector3d::Zero(), yG = Eigen::Vector3d::Zero();
+    in.f.setZero();
+    in.w.setZero();
+    double T = 0, t = 0;
+    for (std::size_t i = b0; i < b1; ++i) {
+      const io::LogRow& r = *use[i];
+      for (int j = 0; j < 3; ++j) {
+        in.f[j] += r.f_ref[j];
+        in.w[j] += r.w_ref[j];
+        yA[j] += r.raw[j] * lsb_[0];
+        yG[j] += r.raw[3 + j] * lsb_[1];
+      }
+      T += r.temp_C;
+      t += r.t_s;
+    }
+    in.f /= cnt; in.w /= cnt; yA /= cnt; yG /= cnt;
+    in.T_C = T / cnt;
+    in.t_s = t / cnt;
+    in.Tdot_C_s = tdot;
+    in.d = hyst_.update(in.T_C);
+    tsum += in.T_C;
+    ++nblocks;
+    for (int s = accel_ok ? 0 : 1; s < 2; ++s) {
+      Sensor sen = s ? Sensor::kGyro : Sensor::kAccel;
+      model::regressors(sen, ids_, in, T_ref_C_, J);
+      const Eigen::Vector3d& y = s ? yG : yA;
+      const Eigen::Vector3d& u = s ? in.w : in.f;
+      double w = cnt / (sigma[s] * sigma[s]);
+      for (int j = 0; j < 3; ++j) {
+        double e = y[j] - u[j];
+        ne.add_row(J.row(j).transpose(), e, w);
+        res.before[3 * s + j] += e * cnt;
+        res.mean_j.row(3 * s + j) += J.row(j) * cnt;
+      }
+    }
+  }
+  double total = static_cast<double>(use.size());
+  for (auto& b : res.before) b /= total;
+  res.mean_j /= total;
+  res.temp_C = tsum / static_cast<double>(nblocks);
+  srif_.add_information(ne.info, ne.rhs);
+  residuals_.push_back(std::move(res));
+  return true;
+}
+
+Eigen::MatrixXd Tracker::predicted_information(const Eigen::Vector3d& f, const Eigen::Vector3d& w, double T_C,
+                                               double duration_s, double rate_hz, bool accel_ok) const {
+  const int n = size();
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(n, n);
+  model::MeasureInput in;
+  in.f = f;
+  in.w = w;
+  in.T_C = T_C;
+  Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, n);
+  double samples = std::max(0.0, duration_s * rate_hz);
+  const double sigma[2] = {accel_noise(), gyro_noise()};
+  for (int s = accel_ok ? 0 : 1; s < 2; ++s) {
+    model::regressors(s ? Sensor::kGyro : Sensor::kAccel, ids_, in, T_ref_C_, J);
+    h += J.transpose() * J * (samples / (sigma[s] * sigma[s]));
+  }
+  return h;
+}
+
+Eigen::VectorXd Tracker::sigma_of(const Eigen::MatrixXd& info) const {
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(info.rows());
+  solver::Estimate e = solver::solve_partial(info, z, names_);
+  return e.sigma();
+}
+
+void Tracker::finalize_residuals(const Eigen::VectorXd& theta) {
+  for (auto& r : residuals_) {
+    if (r.mean_j.cols() != theta.size()) continue;
+    Eigen::VectorXd pred = r.mean_j * theta;
+    for (int k = 0; k < 6; ++k) r.after[static_cast<std::size_t>(k)] = r.before[static_cast<std::size_t>(k)] - pred[k];
+  }
+}
+
+}  // namespace imuforge::eol

@@ -1,0 +1,106 @@
+// The deterministic measurement equation of docs/error-model.md, and its regressors.
+//
+// For one triad, y = u + J(input) · θ, where u is the ideal input (f or ω) and θ the catalog
+// parameters: the model is LINEAR in every deterministic parameter. measure() evaluates y directly;
+// regressors() gives the 3×n matrix J = ∂y/∂θ for any parameter list. The simulator uses measure(),
+// the solver uses regressors(); a test asserts measure() == nominal() + J·θ, so they cannot disagree.
+//
+// Stochastic effects (white noise, bias instability, rate random walk, quantization, saturation,
+// turn-on bias) are NOT here: the simulator realises them (host/sim/noise.h).
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "host/model/catalog.h"
+#include "host/model/sensor_model.h"
+
+namespace imuforge::model {
+
+using Vec3 = Eigen::Vector3d;
+
+// Everything the deterministic model needs at one sample. All in the IMU nominal frame.
+struct MeasureInput {
+  Vec3 f = Vec3::Zero();       // specific force at the IMU reference point, m/s²
+  Vec3 w = Vec3::Zero();       // angular rate w.r.t. inertial space, rad/s
+  Vec3 wdot = Vec3::Zero();    // angular acceleration, rad/s² (size effect; gyro u̇ for timing)
+  Vec3 fdot = Vec3::Zero();    // d f/dt, m/s³ (accel u̇ for timing)
+  double T_C = 25.0;           // die temperature
+  double Tdot_C_s = 0.0;       // die temperature rate
+  double d = 0.0;              // hysteresis direction d(t) ∈ {−1, 0, +1}
+  double t_s = 0.0;            // time since log start (timing ppm term)
+};
+
+// The ideal input u of a triad: f for the accelerometer, ω for the gyro.
+inline const Vec3& nominal(Sensor s, const MeasureInput& in) { return s == Sensor::kAccel ? in.f : in.w; }
+// Its time derivative u̇ (fdot or wdot).
+inline const Vec3& nominal_rate(Sensor s, const MeasureInput& in) { return s == Sensor::kAccel ? in.fdot : in.wdot; }
+
+// Options: the simulator realises timing exactly (by evaluating the input at the shifted time) and
+// passes include_timing = false; the solver's linearised model keeps it on.
+struct MeasureOptions {
+  bool include_timing = true;
+};
+
+// Precomputed dense coefficients of one triad, so per-sample evaluation does no lookups.
+// Build once per sensor model with compile(); evaluate with measure().
+struct CompiledTriad {
+  Sensor sensor = Sensor::kAccel;
+  double T_ref_C = 25.0;
+  double b[3] = {0, 0, 0};
+  double bt[3][3] = {};        // [j][p-1]
+  double M[3][3] = {};         // scale diagonal + misalign off-diagonal (δ excluded)
+  double Mt[3][3][3] = {};     // [j][k][p-1]
+  double k2[3] = {}, k3[3] = {}, asym[3] = {};
+  double cc[3][3] = {};        // [j][k], k≠j
+  double G[3][3] = {};         // gyro only
+  double G2[3][3] = {};        // [j][pair] pair 0=xy, 1=yz, 2=zx
+  double r[3][3] = {};         // size effect lever arm of axis j: r[j][0..2]
+  double hyst[3] = {}, trate[3] = {};
+  double latency_s = 0.0, ppm = 0.0;
+};
+// Uses SensorModel::effective_params() (disabled effects contribute zero).
+CompiledTriad compile(const SensorModel& m, Sensor s);
+CompiledTriad compile(const ParamSet& p, Sensor s, double T_ref_C);
+
+// y in SI (before noise, quantization and saturation). O(1), no allocation.
+Vec3 measure(const CompiledTriad& c, const MeasureInput& in, const MeasureOptions& opt = {});
+// Convenience (compiles each call; not for per-sample loops).
+Vec3 measure(const SensorModel& m, Sensor s, const MeasureInput& in, const MeasureOptions& opt = {});
+
+// Regressors: J.col(i) = ∂y/∂θ_ids[i] for triad s (zero column for parameters of the other sensor or
+// stochastic ones). J must be 3 × ids.size(). T_ref_C is the model's reference temperature.
+// O(ids.size()), no allocation.
+void regressors(Sensor s, const std::vector<ParamId>& ids, const MeasureInput& in, double T_ref_C,
+                Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> J, const MeasureOptions& opt = {});
+
+// Size-effect term alone: s_j = [ω×(ω×r_j) + ω̇×r_j]_j (m/s²). Exposed for the test and the docs.
+Vec3 size_effect_term(const double r[3][3], const Vec3& w, const Vec3& wdot);
+
+// ---- thermal-history helpers, shared by simulator (true die temperature) and solver (logged temp_C) ----
+
+// Streaming d(t): +1 after heating, −1 after cooling, 0 before the first significant change.
+// A change is significant when T has moved more than threshold_C from the last turning point.
+class HysteresisTracker {
+ public:
+  explicit HysteresisTracker(double threshold_C = 0.5) : thr_(threshold_C) {}
+  // Feed samples in time order; returns d for this sample. NaN temperatures keep the current state.
+  double update(double T_C);
+  double direction() const { return d_; }
+  void reset() { init_ = false; d_ = 0.0; }
+
+ private:
+  double thr_;
+  bool init_ = false;
+  double d_ = 0.0;
+  double extreme_ = 0.0;  // last turning point candidate (max while heating, min while cooling)
+};
+
+// Ṫ by centred difference over ±window_s (shrunk to one side at the ends): for sample i, the slope
+// between the first sample at ≥ t_i−window and the last at ≤ t_i+window. NaN temperatures -> 0.
+// O(n), output size n. t must be non-decreasing.
+std::vector<double> temp_rate_centered(const std::vector<double>& t_s, const std::vector<double>& T_C,
+                                       double window_s);
+
+}  // namespace imuforge::model

@@ -1,0 +1,102 @@
+#include "host/solver/calfile.h"
+
+#include <cmath>
+#include <ctime>
+
+namespace imuforge::solver {
+
+std::string utc_now_iso8601() {
+  std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+namespace {
+// JSON has no infinity: unobservable or absent σ is written as null.
+nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+}  // namespace
+
+nlohmann::json calibration_to_json(const CalibrationResult& r) {
+  using nlohmann::json;
+  json j;
+  j["format"] = kCalFormat;
+  j["version"] = kCalVersion;
+  j["mode"] = r.mode;
+  j["method"] = r.method;
+  j["T_ref_C"] = r.T_ref_C;
+  const auto& e = r.estimate;
+  const long n = static_cast<long>(e.names.size());
+  const Eigen::VectorXd sig = r.has_covariance ? e.sigma() : Eigen::VectorXd::Constant(n, NAN);
+  json params = json::array();
+  for (long i = 0; i < n; ++i)
+    params.push_back({{"name", e.names[static_cast<size_t>(i)]}, {"value", e.value[i]}, {"sigma", num(sig[i])}});
+  j["parameters"] = params;
+  if (r.has_covariance) {
+    json cov = json::array(), cor = json::array();
+    const Eigen::MatrixXd c = e.correlation();
+    for (long i = 0; i < n; ++i) {
+      json rc = json::array(), rr = json::array();
+      for (long k = 0; k < n; ++k) {
+        rc.push_back(num(e.covariance(i, k)));
+        rr.push_back(num(c(i, k)));
+      }
+      cov.push_back(rc);
+      cor.push_back(rr);
+    }
+    j["covariance"] = cov;
+    j["correlation"] = cor;
+    j["observability"] = {{"rank", r.observability.rank},
+                          {"n_params", r.observability.n_params},
+                          {"condition_number", num(r.observability.condition_number)},
+                          {"unobservable", r.observability.unobservable}};
+  } else {
+    j["covariance"] = nullptr;
+    j["correlation"] = nullptr;
+    j["observability"] = nullptr;
+  }
+  if (r.has_residuals) {
+    json rms = json::object(), ns = json::object();
+    for (int c = 0; c < kNumChannels; ++c) {
+      rms[channel_name(c)] = num(r.residual_rms[static_cast<size_t>(c)]);
+      ns[channel_name(c)] = num(r.noise_sigma[static_cast<size_t>(c)]);
+    }
+    j["residual_rms"] = rms;
+    j["noise_sigma"] = ns;
+    j["noise_source"] = r.noise_source;
+  }
+  j["model"] = r.model;
+  j["provenance"] = {{"log", r.log_path},
+                     {"log_sha256", r.log_sha256},
+                     {"software", std::string("imuforge ") + IMUFORGE_VERSION},
+                     {"time_utc", utc_now_iso8601()},
+                     {"samples_used", r.samples}};
+  for (auto it = r.extra.begin(); it != r.extra.end(); ++it) j[it.key()] = it.value();
+  return j;
+}
+
+Estimate calibration_from_json(const nlohmann::json& j) {
+  if (!j.is_object() || j.value("format", "") != kCalFormat)
+    throw SolverError("not an imuforge cal.json (\"format\" must be \"imuforge-cal\")");
+  const auto it = j.find("parameters");
+  if (it == j.end() || !it->is_array()) throw SolverError("cal.json: missing array \"parameters\"");
+  Estimate e;
+  const long n = static_cast<long>(it->size());
+  e.value.resize(n);
+  e.covariance = Eigen::MatrixXd::Zero(n, n);
+  long i = 0;
+  for (const auto& p : *it) {
+    if (!p.is_object() || !p.contains("name") || !p["name"].is_string() || !p.contains("value") || !p["value"].is_number())
+      throw SolverError("cal.json: parameters[" + std::to_string(i) + "] needs a string name and a numeric value");
+    e.names.push_back(p["name"].get<std::string>());
+    e.value[i] = p["value"].get<double>();
+    const double s = p.contains("sigma") && p["sigma"].is_number() ? p["sigma"].get<double>() : NAN;
+    e.covariance(i, i) = s * s;
+    ++i;
+  }
+  return e;
+}
+
+}  // namespace imuforge::solver

@@ -1,0 +1,96 @@
+// Reference-free mode (Tedaldi, Pretto, Menegatti, "A robust and easy to implement method for IMU
+// calibration without external equipments", ICRA 2014): static poses of unknown orientation.
+//
+// 1. Static intervals: sliding-window variance (window_s) of the accelerometer and gyro, below
+//    k × the recording's noise floor (10th percentile of the windowed variance), for at least
+//    min_duration_s. k is swept over `thresholds` and the one with the lowest gravity-magnitude residual
+//    (with at least min_intervals poses) is kept, as in the paper.
+// 2. Accelerometer: minimise Σ_i (|f̂_i| − g)², f̂_i = (I+M_a)⁻¹ (ȳ_i − b_a), over the pose means ȳ_i.
+//    |f| is blind to a rotation of the frame, so 3 of the 6 misalignments are fixed by a gauge: the body
+//    frame is the accelerometer's (x sensing axis = body x, y sensing axis in the body xy plane), i.e.
+//    accel.misalign.xy = xz = yz = 0 (a lower-triangular I+M_a, Tedaldi's convention).
+// 3. Gyro bias: the sample-weighted mean gyro output over the static intervals.
+// 4. Gyro scale and misalignment: integrate ω̂ = (I+M_g)⁻¹ (y_g − b_g) (quaternion, RK4) from the end of
+//    pose i to the start of pose i+1; the predicted gravity direction Rᵀ ĝ_i must match ĝ_{i+1}.
+// Weights: the residual scatter (σ² = RSS / (m − p)), since a hand's micro-motion, not sensor noise,
+// dominates the pose-to-pose error. Covariances are per block (accel; gyro bias; gyro scale/misalign),
+// the gyro block conditional on the accelerometer estimate.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+#include <nlohmann/json.hpp>
+
+#include "host/io/log.h"
+#include "host/model/sensor_model.h"
+#include "host/solver/estimate.h"
+
+namespace imuforge::solver {
+
+// All samples of a recording in SI (nominal LSB). Reference-free needs the motion between poses, so
+// unlike the fixture modes it keeps the samples (56 bytes each; a hand-held recording is minutes long).
+struct RawRecording {
+  std::vector<double> t_s;
+  std::vector<std::array<double, 6>> y;  // ax ay az (m/s²) gx gy gz (rad/s)
+  double gravity_mps2 = 9.80665;
+  std::string gravity_source;            // "log metadata" | "normal gravity (latitude/height)" | "standard"
+  double rate_hz = 0.0;
+};
+RawRecording read_recording(io::LogReader& log);
+
+struct StaticInterval {
+  std::size_t begin = 0, end = 0;  // sample indices [begin, end)
+  Eigen::Vector3d acc = Eigen::Vector3d::Zero(), gyro = Eigen::Vector3d::Zero();  // means, SI
+};
+
+struct ReferenceFreeOptions {
+  double window_s = 1.0;
+  double min_duration_s = 1.5;
+  int min_intervals = 9;                        // the accelerometer has 9 unknowns
+  std::vector<double> thresholds = {2, 3, 4, 6, 8, 12, 16};
+};
+
+std::vector<StaticInterval> detect_static(const RawRecording& rec, double window_s, double min_duration_s,
+                                          double k_threshold);
+
+struct ReferenceFreeResult {
+  Estimate estimate;                // the model's parameters (those not fixed by the gauge)
+  std::vector<std::string> gauge_fixed;
+  Observability observability;      // of the stacked blocks
+  std::vector<StaticInterval> intervals;
+  double threshold_k = 0.0;
+  double gravity_mps2 = 0.0;
+  double gravity_rms_before = 0.0;  // RMS over poses of |ȳ_i| − g with the nominal LSB
+  double gravity_rms_after = 0.0;   // same with the calibration
+  double rotation_rms_before = 0.0; // RMS |ĝ_pred − ĝ| over pose transitions, nominal gyro (+ static bias)
+  double rotation_rms_after = 0.0;
+  std::array<double, 6> residual_rms{};  // per channel: static-interval scatter after calibration
+};
+
+ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::ModelSpec& spec,
+                                         const ReferenceFreeOptions& opt = {});
+
+// Applies a (reference-free) calibration to a triad sample: (I+M)⁻¹ (y − b).
+struct TriadCal {
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d IM = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d apply(const Eigen::Vector3d& y) const { return IM.lu().solve(y - b); }
+};
+TriadCal triad_from_estimate(const Estimate& e, const std::string& sensor);
+
+// Known-angle check: integrates the calibrated gyro over the whole recording, with the gyro bias
+// re-estimated from the recording's first static interval (turn-on bias changes at every power-up).
+struct RotationCheck {
+  double angle_deg = 0.0;
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  double angle_nominal_deg = 0.0;    // same with nominal scale (bias still removed)
+};
+RotationCheck rotation_check(const RawRecording& rec, const TriadCal& gyro, double window_s = 1.0);
+
+// Integrates ω over samples [i0, i1) with RK4 on the unit quaternion; returns R such that v_start = R v_end.
+Eigen::Matrix3d integrate_rotation(const RawRecording& rec, const TriadCal& gyro, std::size_t i0, std::size_t i1);
+
+}  // namespace imuforge::solver
