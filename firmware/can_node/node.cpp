@@ -318,11 +318,11 @@ void node_poll(CanNode& n, std::uint64_t now_us) noexcept {
   if (n.reboot_pending && !isotp_tx_busy(n.link)) n.reboot_now = true;
 
   if (n.streaming && n.period_us > 0u) {
-    // Catch up at most a few samples after a stall; beyond that the samples are skipped (the counter
-    // still advances, so the host counts them as lost).
+    // Catch up after a stall (see NodeConfig::max_catch_up_samples); skipped samples still advance
+    // the counter, so the host counts them as lost.
     unsigned burst = 0;
     while (now_us >= n.next_sample_us) {
-      if (burst < 4u) {
+      if (burst < n.cfg.max_catch_up_samples) {
         emit_sample(n, n.next_sample_us);
         ++burst;
       } else {

@@ -32,6 +32,10 @@ struct NodeConfig {
   TableStoreConfig store;
   std::uint8_t isotp_block_size = 0;    // BS announced to the host (0: one FC per message)
   std::uint8_t isotp_st_min_raw = 0;    // STmin announced to the host
+  // Samples emitted back to back after a stall (a long flash erase on target, an OS scheduling gap in
+  // the virtual IMU), each with its own scheduled timestamp; beyond that they are skipped and the
+  // host counts them as lost.
+  std::uint16_t max_catch_up_samples = 128;
 };
 
 struct NodeCounters {

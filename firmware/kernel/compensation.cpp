@@ -1,5 +1,8 @@
 #include "firmware/kernel/compensation.h"
 
+#include <climits>
+#include <cstddef>
+
 namespace imuforge::fw {
 
 namespace {
@@ -27,7 +30,6 @@ inline std::int32_t clamp_count(std::int32_t v, const std::int32_t lim[2], std::
   return v;
 }
 
-float absf(float v) noexcept { return v < 0.0f ? -v : v; }
 
 // ------------------------------------------------------------------------------------------- f32
 void interp_f32(KernelF32* k, float T) noexcept {
@@ -87,14 +89,71 @@ void interp_f32(KernelF32* k, float T) noexcept {
     }
     k->o_g[r] = og;
   }
-  k->T_cached_degC = T;
+  // The window is empty for a NaN input, so a NaN temperature re-interpolates on every call.
+  k->T_lo_degC = T - k->step_degC;
+  k->T_hi_degC = T + k->step_degC;
   k->cached_status = st;
-  k->has_cache = true;
 }
 
-inline std::uint32_t run_f32_core(KernelF32* k, std::int32_t a0, std::int32_t a1, std::int32_t a2, std::int32_t g0,
-                                  std::int32_t g1, std::int32_t g2, float T, ImuF32* out) noexcept {
-  if (!k->has_cache || !(absf(T - k->T_cached_degC) <= k->step_degC)) interp_f32(k, T);
+// Per-sample affine correction. The cached coefficients are contiguous in KernelF32 (A_a, o_a, A_g, A_ga,
+// o_g), which lets the Cortex-M4F version load them with two VLDM instructions; the arithmetic (FMA chain
+// o + A·x in column order) is the same in both versions.
+#if defined(__ARM_FP) && ((__ARM_FP & 4) != 0) && defined(__thumb2__) && !defined(IMUFORGE_KERNEL_NO_ASM)
+#define IMUFORGE_KERNEL_F32_ASM 1
+#endif
+
+__attribute__((always_inline)) inline void affine_f32(const KernelF32* k, std::int32_t a0, std::int32_t a1,
+                                                      std::int32_t a2, std::int32_t g0, std::int32_t g1,
+                                                      std::int32_t g2, ImuF32* out) noexcept {
+#ifdef IMUFORGE_KERNEL_F32_ASM
+  const float* c = k->A_a;
+  float* o = out->accel_mps2;
+  __asm volatile(
+      "vmov s21, s22, %[a0], %[a1]\n\t"
+      "vmov s23, s24, %[a2], %[g0]\n\t"
+      "vmov s25, s26, %[g1], %[g2]\n\t"
+      "vcvt.f32.s32 s21, s21\n\t"
+      "vcvt.f32.s32 s22, s22\n\t"
+      "vcvt.f32.s32 s23, s23\n\t"
+      "vcvt.f32.s32 s24, s24\n\t"
+      "vcvt.f32.s32 s25, s25\n\t"
+      "vcvt.f32.s32 s26, s26\n\t"
+      "vldmia %[c]!, {s0-s11}\n\t"  // A_a s0..s8, o_a s9..s11
+      "vfma.f32 s9, s0, s21\n\t"
+      "vfma.f32 s10, s3, s21\n\t"
+      "vfma.f32 s11, s6, s21\n\t"
+      "vfma.f32 s9, s1, s22\n\t"
+      "vfma.f32 s10, s4, s22\n\t"
+      "vfma.f32 s11, s7, s22\n\t"
+      "vfma.f32 s9, s2, s23\n\t"
+      "vfma.f32 s10, s5, s23\n\t"
+      "vfma.f32 s11, s8, s23\n\t"
+      "vstmia %[o]!, {s9-s11}\n\t"
+      "vldmia %[c], {s0-s20}\n\t"  // A_g s0..s8, A_ga s9..s17, o_g s18..s20
+      "vfma.f32 s18, s0, s24\n\t"
+      "vfma.f32 s19, s3, s24\n\t"
+      "vfma.f32 s20, s6, s24\n\t"
+      "vfma.f32 s18, s1, s25\n\t"
+      "vfma.f32 s19, s4, s25\n\t"
+      "vfma.f32 s20, s7, s25\n\t"
+      "vfma.f32 s18, s2, s26\n\t"
+      "vfma.f32 s19, s5, s26\n\t"
+      "vfma.f32 s20, s8, s26\n\t"
+      "vfma.f32 s18, s9, s21\n\t"
+      "vfma.f32 s19, s12, s21\n\t"
+      "vfma.f32 s20, s15, s21\n\t"
+      "vfma.f32 s18, s10, s22\n\t"
+      "vfma.f32 s19, s13, s22\n\t"
+      "vfma.f32 s20, s16, s22\n\t"
+      "vfma.f32 s18, s11, s23\n\t"
+      "vfma.f32 s19, s14, s23\n\t"
+      "vfma.f32 s20, s17, s23\n\t"
+      "vstmia %[o], {s18-s20}\n\t"
+      : [c] "+r"(c), [o] "+r"(o)
+      : [a0] "r"(a0), [a1] "r"(a1), [a2] "r"(a2), [g0] "r"(g0), [g1] "r"(g1), [g2] "r"(g2)
+      : "s0", "s1", "s2", "s3", "s4", "s5", "s6", "s7", "s8", "s9", "s10", "s11", "s12", "s13", "s14", "s15",
+        "s16", "s17", "s18", "s19", "s20", "s21", "s22", "s23", "s24", "s25", "s26", "memory");
+#else
   const float xa0 = static_cast<float>(a0), xa1 = static_cast<float>(a1), xa2 = static_cast<float>(a2);
   const float xg0 = static_cast<float>(g0), xg1 = static_cast<float>(g1), xg2 = static_cast<float>(g2);
   const float* A = k->A_a;
@@ -105,7 +164,19 @@ inline std::uint32_t run_f32_core(KernelF32* k, std::int32_t a0, std::int32_t a1
     out->gyro_rad_s[r] = k->o_g[r] + Ag[3 * r] * xg0 + Ag[3 * r + 1] * xg1 + Ag[3 * r + 2] * xg2 +
                          Aga[3 * r] * xa0 + Aga[3 * r + 1] * xa1 + Aga[3 * r + 2] * xa2;
   }
-  return k->cached_status;
+#endif
+}
+
+// Saturation flags for int16 counts when no clamping is needed (raw_bits ≥ 16): r ^ (r >> 15) maps
+// both limits −32768 and 32767 to 32767, so bit 15 of (that + 1) is set exactly at a limit. OR-ing the
+// six terms costs 3 instructions per axis instead of two compare-and-branch pairs.
+__attribute__((always_inline)) inline std::uint32_t sat_flags16(std::int32_t a0, std::int32_t a1, std::int32_t a2,
+                                                                 std::int32_t g0, std::int32_t g1,
+                                                                 std::int32_t g2) noexcept {
+  auto t = [](std::int32_t v) { return static_cast<std::uint32_t>((v ^ (v >> 15)) + 1); };
+  const std::uint32_t sa = t(a0) | t(a1) | t(a2);
+  const std::uint32_t sg = t(g0) | t(g1) | t(g2);
+  return ((sa >> 14) & kStatusAccelSaturated) | ((sg >> 13) & kStatusGyroSaturated);
 }
 
 void zero_f32(ImuF32* out) noexcept {
@@ -209,23 +280,21 @@ void interp_q(KernelQ* k, std::int32_t T) noexcept {
     k->oa[r] = oa;
     k->og[r] = og;
   }
-  k->T_cached_q16 = T;
+  // Saturating window [T − step, T + step] (step ≤ 2^30).
+  const std::int64_t lo = static_cast<std::int64_t>(T) - k->step_q16, hi = static_cast<std::int64_t>(T) + k->step_q16;
+  k->T_lo_q16 = lo < INT32_MIN ? INT32_MIN : static_cast<std::int32_t>(lo);
+  k->T_hi_q16 = hi > INT32_MAX ? INT32_MAX : static_cast<std::int32_t>(hi);
   k->cached_status = st;
-  k->has_cache = true;
 }
 
 inline std::int32_t shl_count(std::int32_t v, unsigned s) noexcept {
   return static_cast<std::int32_t>(static_cast<std::uint32_t>(v) << s);
 }
 
-inline std::uint32_t run_q_core(KernelQ* k, std::int32_t a0, std::int32_t a1, std::int32_t a2, std::int32_t g0,
-                                std::int32_t g1, std::int32_t g2, std::int32_t T, ImuQ* out) noexcept {
-  if (!k->has_cache) {
-    interp_q(k, T);
-  } else {
-    const std::int64_t d = static_cast<std::int64_t>(T) - k->T_cached_q16;
-    if (d > k->step_q16 || -d > k->step_q16) interp_q(k, T);
-  }
+__attribute__((always_inline)) inline std::uint32_t run_q_core(KernelQ* k, std::int32_t a0, std::int32_t a1,
+                                                                std::int32_t a2, std::int32_t g0, std::int32_t g1,
+                                                                std::int32_t g2, std::int32_t T, ImuQ* out) noexcept {
+  if (T < k->T_lo_q16 || T > k->T_hi_q16) interp_q(k, T);
   const unsigned sa = k->xs_a, sg = k->xs_g;
   const std::int32_t xa0 = shl_count(a0, sa), xa1 = shl_count(a1, sa), xa2 = shl_count(a2, sa);
   const std::int32_t xg0 = shl_count(g0, sg), xg1 = shl_count(g1, sg), xg2 = shl_count(g2, sg);
@@ -272,15 +341,19 @@ void kernel_f32_init(KernelF32* k, float step_degC) noexcept {
   if (k == nullptr) return;
   *k = KernelF32{};
   k->step_degC = step_degC > 0.0f ? step_degC : 0.0f;
+  k->T_lo_degC = 1.0f;  // empty window
+  k->T_hi_degC = 0.0f;
 }
 
 int kernel_f32_load(KernelF32* k, const Table* t) noexcept {
   if (k == nullptr || t == nullptr) return kKernelNullArgument;
   k->table = nullptr;
-  k->has_cache = false;
+  k->T_lo_degC = 1.0f;  // empty window: the first sample interpolates
+  k->T_hi_degC = 0.0f;
   if (!table_is_valid(t)) return kKernelTableNotValid;
   set_limits(t->accel_raw_bits, k->lim_a, k->lim16_a);
   set_limits(t->gyro_raw_bits, k->lim_g, k->lim16_g);
+  k->narrow16 = t->accel_raw_bits < 16 || t->gyro_raw_bits < 16;
   k->table = t;
   return 0;
 }
@@ -290,14 +363,23 @@ std::uint32_t kernel_f32_run(KernelF32* k, const RawSample16* raw, float temp_de
     zero_f32(out);
     return kStatusNoTable;
   }
-  std::uint32_t sat = 0;
-  const std::int32_t a0 = clamp_count(raw->accel[0], k->lim16_a, &sat, kStatusAccelSaturated);
-  const std::int32_t a1 = clamp_count(raw->accel[1], k->lim16_a, &sat, kStatusAccelSaturated);
-  const std::int32_t a2 = clamp_count(raw->accel[2], k->lim16_a, &sat, kStatusAccelSaturated);
-  const std::int32_t g0 = clamp_count(raw->gyro[0], k->lim16_g, &sat, kStatusGyroSaturated);
-  const std::int32_t g1 = clamp_count(raw->gyro[1], k->lim16_g, &sat, kStatusGyroSaturated);
-  const std::int32_t g2 = clamp_count(raw->gyro[2], k->lim16_g, &sat, kStatusGyroSaturated);
-  return sat | run_f32_core(k, a0, a1, a2, g0, g1, g2, temp_degC, out);
+  std::int32_t a0 = raw->accel[0], a1 = raw->accel[1], a2 = raw->accel[2];
+  std::int32_t g0 = raw->gyro[0], g1 = raw->gyro[1], g2 = raw->gyro[2];
+  std::uint32_t sat;
+  if (k->narrow16) {
+    sat = 0;
+    a0 = clamp_count(a0, k->lim16_a, &sat, kStatusAccelSaturated);
+    a1 = clamp_count(a1, k->lim16_a, &sat, kStatusAccelSaturated);
+    a2 = clamp_count(a2, k->lim16_a, &sat, kStatusAccelSaturated);
+    g0 = clamp_count(g0, k->lim16_g, &sat, kStatusGyroSaturated);
+    g1 = clamp_count(g1, k->lim16_g, &sat, kStatusGyroSaturated);
+    g2 = clamp_count(g2, k->lim16_g, &sat, kStatusGyroSaturated);
+  } else {
+    sat = sat_flags16(a0, a1, a2, g0, g1, g2);
+  }
+  if (!(temp_degC >= k->T_lo_degC && temp_degC <= k->T_hi_degC)) interp_f32(k, temp_degC);
+  affine_f32(k, a0, a1, a2, g0, g1, g2, out);
+  return sat | k->cached_status;
 }
 
 std::uint32_t kernel_f32_run32(KernelF32* k, const RawSample32* raw, float temp_degC, ImuF32* out) noexcept {
@@ -312,20 +394,25 @@ std::uint32_t kernel_f32_run32(KernelF32* k, const RawSample32* raw, float temp_
   const std::int32_t g0 = clamp_count(raw->gyro[0], k->lim_g, &sat, kStatusGyroSaturated);
   const std::int32_t g1 = clamp_count(raw->gyro[1], k->lim_g, &sat, kStatusGyroSaturated);
   const std::int32_t g2 = clamp_count(raw->gyro[2], k->lim_g, &sat, kStatusGyroSaturated);
-  return sat | run_f32_core(k, a0, a1, a2, g0, g1, g2, temp_degC, out);
+  if (!(temp_degC >= k->T_lo_degC && temp_degC <= k->T_hi_degC)) interp_f32(k, temp_degC);
+  affine_f32(k, a0, a1, a2, g0, g1, g2, out);
+  return sat | k->cached_status;
 }
 
 // ------------------------------------------------------------------------------------ fixed API
 void kernel_q_init(KernelQ* k, std::int32_t step_q16) noexcept {
   if (k == nullptr) return;
   *k = KernelQ{};
-  k->step_q16 = step_q16 > 0 ? step_q16 : 0;
+  k->step_q16 = step_q16 > 0 ? (step_q16 > (1 << 30) ? (1 << 30) : step_q16) : 0;
+  k->T_lo_q16 = 1;  // empty window
+  k->T_hi_q16 = 0;
 }
 
 int kernel_q_load(KernelQ* k, const Table* t) noexcept {
   if (k == nullptr || t == nullptr) return kKernelNullArgument;
   k->has_table = false;
-  k->has_cache = false;
+  k->T_lo_q16 = 1;  // empty window: the first sample interpolates
+  k->T_hi_q16 = 0;
   if (!table_is_valid(t)) return kKernelTableNotValid;
   const std::size_t n = t->n_breakpoints;
   const double scale_a = static_cast<double>(t->accel_lsb_mps2) * 65536.0;   // accel out-LSB per count
@@ -382,6 +469,7 @@ int kernel_q_load(KernelQ* k, const Table* t) noexcept {
   k->n_bp = static_cast<std::uint8_t>(n);
   set_limits(t->accel_raw_bits, k->lim_a, k->lim16_a);
   set_limits(t->gyro_raw_bits, k->lim_g, k->lim16_g);
+  k->narrow16 = t->accel_raw_bits < 16 || t->gyro_raw_bits < 16;
   k->has_table = true;
   return 0;
 }
@@ -391,13 +479,20 @@ std::uint32_t kernel_q_run(KernelQ* k, const RawSample16* raw, std::int32_t temp
     zero_q(out);
     return kStatusNoTable;
   }
-  std::uint32_t sat = 0;
-  const std::int32_t a0 = clamp_count(raw->accel[0], k->lim16_a, &sat, kStatusAccelSaturated);
-  const std::int32_t a1 = clamp_count(raw->accel[1], k->lim16_a, &sat, kStatusAccelSaturated);
-  const std::int32_t a2 = clamp_count(raw->accel[2], k->lim16_a, &sat, kStatusAccelSaturated);
-  const std::int32_t g0 = clamp_count(raw->gyro[0], k->lim16_g, &sat, kStatusGyroSaturated);
-  const std::int32_t g1 = clamp_count(raw->gyro[1], k->lim16_g, &sat, kStatusGyroSaturated);
-  const std::int32_t g2 = clamp_count(raw->gyro[2], k->lim16_g, &sat, kStatusGyroSaturated);
+  std::int32_t a0 = raw->accel[0], a1 = raw->accel[1], a2 = raw->accel[2];
+  std::int32_t g0 = raw->gyro[0], g1 = raw->gyro[1], g2 = raw->gyro[2];
+  std::uint32_t sat;
+  if (k->narrow16) {
+    sat = 0;
+    a0 = clamp_count(a0, k->lim16_a, &sat, kStatusAccelSaturated);
+    a1 = clamp_count(a1, k->lim16_a, &sat, kStatusAccelSaturated);
+    a2 = clamp_count(a2, k->lim16_a, &sat, kStatusAccelSaturated);
+    g0 = clamp_count(g0, k->lim16_g, &sat, kStatusGyroSaturated);
+    g1 = clamp_count(g1, k->lim16_g, &sat, kStatusGyroSaturated);
+    g2 = clamp_count(g2, k->lim16_g, &sat, kStatusGyroSaturated);
+  } else {
+    sat = sat_flags16(a0, a1, a2, g0, g1, g2);
+  }
   return sat | run_q_core(k, a0, a1, a2, g0, g1, g2, temp_q16_degC, out);
 }
 
@@ -417,3 +512,10 @@ std::uint32_t kernel_q_run32(KernelQ* k, const RawSample32* raw, std::int32_t te
 }
 
 }  // namespace imuforge::fw
+
+// The M4F path loads the cached coefficients with VLDM in this order.
+static_assert(offsetof(imuforge::fw::KernelF32, o_a) == offsetof(imuforge::fw::KernelF32, A_a) + 36, "layout");
+static_assert(offsetof(imuforge::fw::KernelF32, A_g) == offsetof(imuforge::fw::KernelF32, A_a) + 48, "layout");
+static_assert(offsetof(imuforge::fw::KernelF32, A_ga) == offsetof(imuforge::fw::KernelF32, A_a) + 84, "layout");
+static_assert(offsetof(imuforge::fw::KernelF32, o_g) == offsetof(imuforge::fw::KernelF32, A_a) + 120, "layout");
+static_assert(offsetof(imuforge::fw::ImuF32, gyro_rad_s) == 12, "layout");

@@ -21,7 +21,8 @@
 //                 gyro   int32, LSB 2^-18 rad/s (Q13.18, range ±8192 rad/s)
 //               Per sample: x = clamp(raw) << (r−1) with r = 32 − raw_bits (|x| ≤ 2^30, 1 guard bit);
 //               coefficients int32 with |K| < 2^29 (2 guard bits), products summed in int64 with the
-//               offset (|o| < 2^62): |acc| < 6·2^59 + 2^62 < 2^63, so no intermediate can overflow.
+//               offset o = 2^(S−1) − Σ K·β (β = bias in shifted counts, |β| ≤ 2^30 because |b| ≤ full
+//               scale): |acc| < 2^61 + 6·2^59 + 6·2^59 = 2^63, so no intermediate can overflow.
 //               The output is acc >> S with S ≥ 32 (per triad), taken as (high word) >> (S − 32),
 //               rounded half up (the ½ is in the offset); it always fits int32, so the per-sample path
 //               needs no saturation after the input clamp. kernel_q_load rejects a table whose range
@@ -90,19 +91,19 @@ constexpr std::int32_t temp_q16_from_cdegC(std::int32_t cdegC) noexcept {
 
 // ---------------------------------------------------------------------------------------------- f32
 struct KernelF32 {
-  // Cached affine correction (valid when has_cache).
+  // Cached affine correction (valid while T is inside [T_lo, T_hi]).
   float A_a[9];   // accel: C_a · lsb_a, row-major
   float o_a[3];   // −C_a · b_a
   float A_g[9];   // gyro: C_g · lsb_g
   float A_ga[9];  // G · A_a
   float o_g[3];   // −C_g · b_g + G · o_a
-  float T_cached_degC;
+  float T_lo_degC, T_hi_degC;  // re-interpolate when T is outside [lo, hi] (or NaN); empty after load
   float step_degC;
   std::uint32_t cached_status;  // kStatusTempClamped of the cached interpolation
   std::int32_t lim_a[2], lim_g[2];      // raw clamp limits, int32 entry
   std::int32_t lim16_a[2], lim16_g[2];  // raw clamp limits, int16 entry
   const Table* table;  // borrowed: must stay alive and unchanged while loaded
-  bool has_cache;
+  bool narrow16;       // raw_bits < 16 on either triad: the int16 entry must clamp, not only flag
 };
 
 // No table, outputs zero with kStatusNoTable until a load succeeds. step_degC < 0 is taken as 0. O(1).
@@ -125,7 +126,7 @@ struct KernelQ {
   KernelQBreakpoint bp[kTableMaxBreakpoints];  // converted table (owned copy; the Table may go away)
   std::int32_t bp_q16[kTableMaxBreakpoints];   // breakpoints, Q16.16 °C
   std::uint8_t n_bp;
-  // Cached per-sample form (valid when has_cache).
+  // Cached per-sample form (valid while T is inside [T_lo_q16, T_hi_q16]).
   std::int32_t Ka[9];
   std::int32_t Kg[9];
   std::int32_t Kga[9];
@@ -136,13 +137,13 @@ struct KernelQ {
   std::uint8_t os_a, os_g;    // S − 32
   std::uint8_t fa, fg, fG, fga;
   bool has_G;
-  std::int32_t T_cached_q16;
+  std::int32_t T_lo_q16, T_hi_q16;  // re-interpolate when T is outside [lo, hi]; empty after load
   std::int32_t step_q16;
   std::uint32_t cached_status;
   std::int32_t lim_a[2], lim_g[2];
   std::int32_t lim16_a[2], lim16_g[2];
   bool has_table;
-  bool has_cache;
+  bool narrow16;
 };
 
 // No table, outputs zero with kStatusNoTable until a load succeeds. step_q16 < 0 is taken as 0. O(1).

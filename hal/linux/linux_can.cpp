@@ -226,13 +226,17 @@ class SocketCanPort final : public LinuxCanPort {
         return false;
       }
     }
-    int snd = 256 * 1024;
-    if (::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &snd, sizeof snd) != 0) {
+    // Large buffers absorb bursts (catch-up after a stall, a slow reader). The FORCE variants need
+    // CAP_NET_ADMIN (root in the VM); otherwise the plain ones, capped by net.core.[rw]mem_max, apply.
+    int snd = 4 * 1024 * 1024;
+    if (::setsockopt(fd_, SOL_SOCKET, SO_SNDBUFFORCE, &snd, sizeof snd) != 0 &&
+        ::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &snd, sizeof snd) != 0) {
       *err = sys_error("socketcan: SO_SNDBUF");
       return false;
     }
-    int rcv = 4 * 1024 * 1024;
-    if (::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcv, sizeof rcv) != 0) {
+    int rcv = 16 * 1024 * 1024;
+    if (::setsockopt(fd_, SOL_SOCKET, SO_RCVBUFFORCE, &rcv, sizeof rcv) != 0 &&
+        ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcv, sizeof rcv) != 0) {
       *err = sys_error("socketcan: SO_RCVBUF");
       return false;
     }

@@ -25,7 +25,9 @@ void UsageFault_Handler(void) __attribute__((weak, alias("Default_Handler")));
 void SVC_Handler(void) __attribute__((weak, alias("Default_Handler")));
 void PendSV_Handler(void) __attribute__((weak, alias("Default_Handler")));
 
-/* crti/crtn are not linked (-nostartfiles): __libc_init_array calls these. */
+/* crti/crtn/crtbegin are not linked (-nostartfiles): __libc_init_array calls _init/_fini, and
+ * __cxa_atexit registrations name the module by __dso_handle. */
+void* __dso_handle = &__dso_handle;
 void _init(void) {}
 void _fini(void) {}
 

@@ -29,20 +29,22 @@ RegisterBank::RegisterBank(RegisterMap table, RegisterMap chamber) : table_(std:
     for (const auto& s : m->slots()) top = std::max(top, static_cast<int>(s.address) + 1);
   regs_.assign(static_cast<size_t>(top), 0);
   owner_.assign(static_cast<size_t>(top), Owner{});
-  for (const RegisterMap* m : {&table_, &chamber_}) {
+  for (int mi = 0; mi < 2; ++mi) {
+    const RegisterMap* m = mi == 0 ? &table_ : &chamber_;
     for (const auto& s : m->slots()) {
       Owner& o = owner_[s.address];
-      if (o.point) {
+      if (o.map >= 0) {
         // Shared points (the clock) are fine when both maps describe them identically.
-        const bool same = o.point->name == s.point->name && o.point->type == s.point->type &&
-                          o.point->scale == s.point->scale && !o.point->writable && !s.point->writable;
+        const Point& op = point_of(o);
+        const bool same = op.name == s.point->name && op.type == s.point->type && op.scale == s.point->scale &&
+                          !op.writable && !s.point->writable;
         if (!same)
           throw std::runtime_error("bench-sim: register " + std::to_string(s.address) + " is " +
-                                   o.map->label(*o.point, o.axis) + " in " + o.map->origin() + " but " +
+                                   map_of(o).label(op, o.axis) + " in " + map_of(o).origin() + " but " +
                                    m->label(*s.point, s.axis) + " in " + m->origin());
         continue;
       }
-      o = Owner{m, s.point, s.axis};
+      o = Owner{mi, static_cast<int>(s.point - m->points().data()), s.axis};
     }
   }
   seq_applied_.assign(static_cast<size_t>(table_.axes()), 0);
@@ -142,8 +144,9 @@ int RegisterBank::check_write(uint16_t address, const uint16_t* words, int n, st
   }
   for (int i = 0; i < n; ++i) {
     const Owner& o = owner_[address + static_cast<size_t>(i)];
-    if (!o.point || !o.point->writable) {
-      *why = "register " + std::to_string(address + i) + (o.point ? " (" + o.map->label(*o.point, o.axis) + ") is read-only" : " is not mapped");
+    if (o.map < 0 || !point_of(o).writable) {
+      *why = "register " + std::to_string(address + i) +
+             (o.map >= 0 ? " (" + map_of(o).label(point_of(o), o.axis) + ") is read-only" : " is not mapped");
       return 2;
     }
   }
@@ -152,15 +155,17 @@ int RegisterBank::check_write(uint16_t address, const uint16_t* words, int n, st
   std::copy(words, words + n, after.begin() + address);
   for (int i = 0; i < n; ++i) {
     const Owner& o = owner_[address + static_cast<size_t>(i)];
-    const double v = o.map->decode(*o.point, after.data() + o.map->address(*o.point, o.axis));
-    bool ok = std::isfinite(v) && v >= o.point->min && v <= o.point->max;
-    if (ok && !o.point->values.empty()) {
+    const RegisterMap& m = map_of(o);
+    const Point& p = point_of(o);
+    const double v = m.decode(p, after.data() + m.address(p, o.axis));
+    bool ok = std::isfinite(v) && v >= p.min && v <= p.max;
+    if (ok && !p.values.empty()) {
       ok = false;
-      for (const auto& kv : o.point->values) ok = ok || kv.second == static_cast<int>(v);
+      for (const auto& kv : p.values) ok = ok || kv.second == static_cast<int>(v);
     }
     if (!ok) {
       std::ostringstream os;
-      os << o.map->label(*o.point, o.axis) << ": value " << v << " not accepted";
+      os << m.label(p, o.axis) << ": value " << v << " not accepted";
       *why = os.str();
       return 3;
     }
@@ -174,12 +179,13 @@ void RegisterBank::apply_write(uint16_t address, const uint16_t* words, int n, W
   bool setpoint = false, ramp = false, run = false;
   for (int i = 0; i < n; ++i) {
     const Owner& o = owner_[address + static_cast<size_t>(i)];
-    if (o.map == &table_) {
+    if (o.map == 0) {
       if (std::find(axes_touched.begin(), axes_touched.end(), o.axis) == axes_touched.end()) axes_touched.push_back(o.axis);
     } else {
-      setpoint |= o.point->name == "setpoint";
-      ramp |= o.point->name == "ramp";
-      run |= o.point->name == "run";
+      const std::string& n = point_of(o).name;
+      setpoint |= n == "setpoint";
+      ramp |= n == "ramp";
+      run |= n == "run";
     }
   }
   for (int a : axes_touched) {

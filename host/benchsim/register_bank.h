@@ -24,6 +24,8 @@ class RegisterBank {
  public:
   // Throws std::runtime_error if the maps claim the same register for different points.
   RegisterBank(fixture::RegisterMap table, fixture::RegisterMap chamber);
+  RegisterBank(RegisterBank&&) = default;
+  RegisterBank& operator=(RegisterBank&&) = default;
 
   // Writable registers start from the world's state (setpoint, ramp, run, idle axes, cmd_seq 0).
   void init_from(const World& w);
@@ -43,11 +45,16 @@ class RegisterBank {
  private:
   void put(const fixture::RegisterMap& m, const char* name, double value, int axis = 0);
   double get(const fixture::RegisterMap& m, const char* name, int axis, double dflt) const;
+  // Indices, not pointers, so the bank can be moved.
   struct Owner {
-    const fixture::RegisterMap* map = nullptr;
-    const fixture::Point* point = nullptr;
+    int map = -1;    // 0 table, 1 chamber, -1 unmapped
+    int point = -1;  // index in that map's points()
     int axis = 0;
   };
+  const fixture::RegisterMap& map_of(const Owner& o) const { return o.map == 0 ? table_ : chamber_; }
+  const fixture::Point& point_of(const Owner& o) const {
+    return map_of(o).points()[static_cast<size_t>(o.point)];
+  }
 
   fixture::RegisterMap table_, chamber_;
   std::vector<uint16_t> regs_;

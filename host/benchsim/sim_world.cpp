@@ -137,20 +137,14 @@ class SimWorld final : public World {
     } else if (x.mode == AxisMode::kPosition) {
       // Time-optimal approach under rate and acceleration limits: the fastest rate from which the axis
       // can still stop at the target.
+      // The last term lands exactly on the target in one step once the acceleration limit allows it.
       const double e = x.command - x.angle;
-      v_goal = std::copysign(std::min(vmax, std::sqrt(2.0 * amax * std::fabs(e))), e);
-      if (std::fabs(e) < 0.5 * amax * dt * dt && std::fabs(x.rate) <= amax * dt) {
-        x.angle = x.command;  // within one step of rest at the target: stop there
-        x.accel = -x.rate / dt;
-        x.rate = 0;
-        return;
-      }
+      v_goal = std::copysign(std::min({vmax, std::sqrt(2.0 * amax * std::fabs(e)), std::fabs(e) / dt}), e);
     }
     const double dv = std::clamp(v_goal - x.rate, -amax * dt, amax * dt);
-    const double v0 = x.rate;
     x.rate += dv;
     x.accel = dv / dt;
-    x.angle += 0.5 * (v0 + x.rate) * dt;
+    x.angle += x.rate * dt;  // semi-implicit Euler: a commanded stop lands exactly
   }
 
   void step(double dt) {

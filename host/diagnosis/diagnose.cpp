@@ -790,9 +790,10 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   std::set<std::pair<int, int>> cur_effects = in_model;
   std::set<ParamId> cur = model_ids;
   Gap last = R.gap_before;
-  for (int step = 0; step < o.max_steps; ++step) {
+  for (int step = 0;; ++step) {
     std::vector<CandidateScore> sc = score_all(cur, cur_effects);
     if (step == 0) R.ranking = sc;
+    if (step >= o.max_steps) break;
     const CandidateScore* best = nullptr;
     for (const auto& c : sc)
       if (c.significant) {

@@ -99,7 +99,8 @@ void AllanAccumulator::add_series(const std::vector<double>& x) {
 std::vector<AllanAccumulator::Point> AllanAccumulator::points(long long min_terms) const {
   std::vector<Point> out;
   for (std::size_t l = 0; l < num_.size(); ++l) {
-    if (cnt_[l] < min_terms) continue;
+    // Points resting on too few independent differences are too noisy to score (their χ² weight lies).
+    if (cnt_[l] < min_terms || edf_[l] < 10.0) continue;
     Point p;
     p.tau_s = tau0_s_ * static_cast<double>(1ULL << l);
     p.avar = num_[l] / (2.0 * static_cast<double>(cnt_[l]));

@@ -49,6 +49,7 @@ struct DeviceInfo {
   bool table_present = false;
   std::uint32_t table_crc32 = 0;
   std::uint32_t table_seq = 0;
+  int accel_raw_bits = 16, gyro_raw_bits = 16;  // width of the streamed counts
 };
 
 struct StreamStats {
@@ -59,6 +60,8 @@ class Device {
  public:
   virtual ~Device() = default;
   virtual DeviceInfo identify() = 0;
+  // The sample rate (sensor-time Hz) a stream request for rate_hz actually delivers.
+  virtual double effective_rate_hz(double rate_hz) { return rate_hz; }
   // Streams at rate_hz and calls on_sample for each sample in order until it returns false. Returns the
   // loss counters of this stream.
   virtual StreamStats stream(double rate_hz, const std::function<bool(const ImuSample&)>& on_sample) = 0;
@@ -70,8 +73,10 @@ class Device {
 class TableOps {
  public:
   virtual ~TableOps() = default;
-  // The coefficient table v1 for an estimate (catalog names), for the device serial.
-  virtual std::vector<std::uint8_t> build(const solver::Estimate& e, double T_ref_C, const std::string& serial,
+  // The coefficient table v1 for an estimate (catalog names) with breakpoints at the given die
+  // temperatures, for this device. Throws if the estimate holds an effect the table cannot express.
+  virtual std::vector<std::uint8_t> build(const solver::Estimate& e, double T_ref_C,
+                                          const std::vector<double>& breakpoints_C, const DeviceInfo& dev,
                                           std::uint32_t seq) = 0;
   // Applies a table to one raw sample exactly as the firmware kernel does: out = ax ay az (m/s²),
   // gx gy gz (rad/s). Throws if the table does not parse.

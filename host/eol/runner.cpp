@@ -19,6 +19,7 @@
 #include "host/records/store.h"
 #include "host/sim/earth.h"
 #include "host/sim/table.h"
+#include "host/solver/fixture.h"
 #include "host/solver/sha256.h"
 
 namespace fs = std::filesystem;
@@ -230,7 +231,7 @@ RunResult Runner::run() {
 
   io::LogMeta meta;
   meta.serial = info.serial;
-  meta.sample_rate_hz = st.stream_rate_hz;
+  meta.sample_rate_hz = dev_.effective_rate_hz(st.stream_rate_hz);
   meta.accel_lsb_mps2 = info.accel_lsb_mps2;
   meta.gyro_lsb_rad_s = info.gyro_lsb_rad_s;
   meta.latitude_deg = camp.latitude_deg;
@@ -328,6 +329,8 @@ RunResult Runner::run() {
   const double bench_t0 = peer("fixture clock", [&] { return bench_.time_s(); });
   auto run_clock = [&] { return run_clock_base + (bench_.time_s() - bench_t0); };
   int collected_here = 0;
+  bool rotating = false;
+  std::array<double, 3> rotating_from{};
   double last_air_C = NAN, temp_offset_C = 0.0;
 
   auto progress = [&](int phase, const std::string& label, bool table) {
@@ -413,22 +416,38 @@ RunResult Runner::run() {
     if (si.kind == sim::CampaignStep::Kind::kPosition) {
       peer("rate table command", [&] { bench_.command_rate({0, 0, 0}); bench_.command_position(si.position_deg); return 0; });
     } else if (si.kind == sim::CampaignStep::Kind::kRate) {
+      // The axes that do not turn must hold the step's start position (it decides which IMU axis the
+      // rotation is about). Steps may run out of file order (early stop), so unless the table is already
+      // turning from this same start position (CW then CCW), go there first.
+      if (!(rotating && rotating_from == si.position_deg)) {
+        peer("rate table command", [&] { bench_.command_rate({0, 0, 0}); bench_.command_position(si.position_deg); return 0; });
+        wait_table("reaching the start of " + si.label);
+      }
       peer("rate table command", [&] { bench_.command_rate(si.rate_dps); return 0; });
     }
+    rotating = si.kind == sim::CampaignStep::Kind::kRate;
+    rotating_from = si.position_deg;
     TableReading r0 = wait_table("reaching " + si.label);
+    const double t_read = bench_.time_s();  // fixture time of r0 (one Modbus round trip later)
     last_air_C = peer("chamber status", [&] { return bench_.chamber_air_C(); });
     const double t_start = run_clock();
     const double dwell = dwell_override > 0 ? dwell_override : si.dwell_s;
     std::string file = (out / "segments" / (seg_name + ".bin")).string();
     io::LogWriter w(file, meta, io::LogEncoding::kBinary);
     std::vector<io::LogRow> rows;
-    double t_first = NAN;
+    double t_first = NAN, sensor_to_fixture = 0.0;
     StreamStats ss = peer("CAN stream", [&] {
       return dev_.stream(st.stream_rate_hz, [&](const ImuSample& s) {
-        if (std::isnan(t_first)) t_first = s.t_s;
+        if (std::isnan(t_first)) {
+          t_first = s.t_s;
+          // Sensor clock -> fixture clock, so a rate run's reference angle follows the table's phase.
+          // Only rate runs need it (f_ref of a static dwell does not depend on time).
+          if (si.kind == sim::CampaignStep::Kind::kRate) sensor_to_fixture = bench_.time_s() - s.t_s;
+        }
         double el = s.t_s - t_first;
+        double dt_table = si.kind == sim::CampaignStep::Kind::kRate ? s.t_s + sensor_to_fixture - t_read : 0.0;
         std::array<double, 3> ang = r0.angle_deg;
-        for (int i = 0; i < 3; ++i) ang[static_cast<std::size_t>(i)] += r0.rate_dps[static_cast<std::size_t>(i)] * el;
+        for (int i = 0; i < 3; ++i) ang[static_cast<std::size_t>(i)] += r0.rate_dps[static_cast<std::size_t>(i)] * dt_table;
         auto k = kin.at(ang, r0.rate_dps);
         io::LogRow row;
         row.t_s = t_start + el;
@@ -604,9 +623,32 @@ RunResult Runner::run() {
     journal->append({{"type", "log_merged"}, {"file", "log.bin"}, {"sha256", log_sha}});
   }
 
-  // The recursive estimate equals the batch fixture-mode solution at the end (square-root information
-  // filter without process noise: host/solver/srif.h); it is the batch solve of the merged log.
-  solver::Estimate est = tracker.estimate();
+  // Batch solve of the merged log (host/solver fixture mode). The recursive estimate that steered the
+  // collection is kept for comparison in cal.json.
+  const solver::Estimate recursive = tracker.estimate();
+  solver::Estimate est = recursive;
+  std::string solve_note = "srif";
+  try {
+    io::LogReader lr(log_path);
+    solver::FixtureAccumulator acc(spec, lr.meta());
+    io::LogRow row;
+    while (lr.next(row)) acc.add(row);
+    acc.finish();
+    solver::Sigma6 noise = acc.static_noise_sigma();
+    if (st.accel_noise_mps2 > 0)
+      for (int c = 0; c < 3; ++c) noise[static_cast<std::size_t>(c)] = st.accel_noise_mps2;
+    if (st.gyro_noise_rad_s > 0)
+      for (int c = 3; c < 6; ++c) noise[static_cast<std::size_t>(c)] = st.gyro_noise_rad_s;
+    solver::FixtureSolution sol = solver::solve_fixture(acc, noise);
+    if (sol.estimate.names == est.names) {
+      est = sol.estimate;
+      solve_note = "batch fixture mode (host/solver)";
+    } else {
+      solve_note = "srif (batch names differ: per-plateau model?)";
+    }
+  } catch (const solver::SolverError& e) {
+    solve_note = std::string("srif (batch solve refused: ") + e.what() + ")";
+  }
   res.estimate = est;
   Eigen::VectorXd sig = est.sigma();
   std::vector<std::string> extra_reasons;
@@ -632,8 +674,14 @@ RunResult Runner::run() {
       cal["covariance"] = cov;
     }
     cal["model"] = model::model_spec_to_json(spec);
+    cal["recursive"] = json::array();
+    Eigen::VectorXd rs = recursive.sigma();
+    for (int i = 0; i < n; ++i)
+      cal["recursive"].push_back({{"name", recursive.names[static_cast<std::size_t>(i)]},
+                                  {"value", std::isfinite(recursive.value[i]) ? recursive.value[i] : 0.0},
+                                  {"sigma", std::isfinite(rs[i]) ? rs[i] : -1.0}});
     cal["provenance"] = {{"log_sha256", log_sha}, {"software_version", IMUFORGE_VERSION},
-                         {"time_utc", records::utc_now_iso8601()}, {"method", "srif (fixture mode)"}};
+                         {"time_utc", records::utc_now_iso8601()}, {"method", solve_note}};
     std::ofstream(out / "cal.json") << cal.dump(2) << "\n";
   }
   if (!solvable) extra_reasons.push_back("solve: some parameters are not observable from the collected segments");
@@ -643,7 +691,24 @@ RunResult Runner::run() {
   if (solvable) {
     std::uint32_t seq = info.table_seq + 1;
     if (finish.contains("flashed")) seq = finish["flashed"].value("seq", seq);
-    blob = peer("table build", [&] { return table_.build(est, tracker.T_ref_C(), info.serial, seq); });
+    // Breakpoints span the die temperatures seen, so the kernel interpolates and never extrapolates.
+    double tmin = INFINITY, tmax = -INFINITY;
+    for (const auto& r : tracker.residuals()) {
+      tmin = std::min(tmin, r.temp_C);
+      tmax = std::max(tmax, r.temp_C);
+    }
+    std::vector<double> bps;
+    if (!(tmax - tmin > 1.0)) {
+      bps.push_back(std::isfinite(tmin) ? 0.5 * (tmin + tmax) : tracker.T_ref_C());
+    } else {
+      const int nb = 9;
+      for (int i = 0; i < nb; ++i) bps.push_back(tmin - 2.0 + (tmax - tmin + 4.0) * i / (nb - 1));
+    }
+    try {
+      blob = table_.build(est, tracker.T_ref_C(), bps, info, seq);
+    } catch (const std::exception& e) {
+      throw std::invalid_argument(std::string("table: ") + e.what());
+    }
     crc = fw::crc32(blob.data(), blob.size());
     { std::ofstream(out / "table.bin", std::ios::binary).write(reinterpret_cast<const char*>(blob.data()), static_cast<std::streamsize>(blob.size())); }
     if (!finish.contains("flashed")) {

@@ -28,16 +28,20 @@ std::array<double, 3> vec3(const nlohmann::json& j, const std::string& where) {
 }  // namespace
 
 const ParamLimit* StationConfig::limit_for(const std::string& param) const {
+  // Exact name first; else the longest pattern that is a prefix: "accel.bias" (at a '.' boundary, as in
+  // the solver's sigma spec) or "accel.bias*" (any continuation).
   const ParamLimit* best = nullptr;
   std::size_t best_len = 0;
   for (const auto& l : limits) {
     if (l.pattern == param) return &l;
-    if (!l.pattern.empty() && l.pattern.back() == '*') {
-      std::string prefix = l.pattern.substr(0, l.pattern.size() - 1);
-      if (param.compare(0, prefix.size(), prefix) == 0 && (best == nullptr || prefix.size() >= best_len)) {
-        best = &l;
-        best_len = prefix.size();
-      }
+    std::string prefix = l.pattern;
+    bool star = !prefix.empty() && prefix.back() == '*';
+    if (star) prefix.pop_back();
+    bool match = param.compare(0, prefix.size(), prefix) == 0 && param.size() > prefix.size() &&
+                 (star || param[prefix.size()] == '.');
+    if (match && (best == nullptr || prefix.size() > best_len)) {
+      best = &l;
+      best_len = prefix.size();
     }
   }
   return best;
@@ -58,6 +62,12 @@ StationConfig station_from_json(const nlohmann::json& j, const std::string& dir)
   }
   if (j.contains("records")) s.db = get_or<std::string>(j["records"], "db", s.db, "records.");
   s.model_path = get_or<std::string>(j, "model", s.model_path, "");
+  s.time_scale = get_or<double>(j, "time_scale", s.time_scale, "");
+  if (!(s.time_scale > 0)) throw StationError("station: time_scale must be > 0");
+  if (j.contains("imu")) {
+    s.accel_lsb_mps2 = get_or<double>(j["imu"], "accel_lsb_mps2", 0.0, "imu.");
+    s.gyro_lsb_rad_s = get_or<double>(j["imu"], "gyro_lsb_rad_s", 0.0, "imu.");
+  }
   s.sensor_hint = get_or<std::string>(j, "sensor", s.sensor_hint, "");
   if (j.contains("noise")) {
     s.accel_noise_mps2 = get_or<double>(j["noise"], "accel_mps2", 0.0, "noise.");

@@ -17,7 +17,7 @@ class StationError : public std::runtime_error {
 
 // Limits on one parameter, or on every parameter matched by a pattern ("accel.bias.*").
 struct ParamLimit {
-  std::string pattern;   // exact catalog name, or a prefix ending in '*'
+  std::string pattern;   // exact catalog name, a prefix ("accel.bias" covers accel.bias.x), or "prefix*"
   double abs_max = 0.0;  // |value| must not exceed; 0 = no limit
   double sigma_max = 0.0;// σ must not exceed (also the early-stop spec); 0 = no limit
 };
@@ -35,7 +35,10 @@ struct StationConfig {
   nlohmann::json fixtures;         // {"table": {...}, "chamber": {...}} for host/fixture
   std::string can_bus = "virtual:bench1";
   int can_node_id = 1;
-  double stream_rate_hz = 100.0;   // sample stream rate requested from the IMU
+  double stream_rate_hz = 100.0;   // sample rate wanted, in sensor (simulated) time
+  double time_scale = 1.0;         // bench-sim only: simulated seconds per wall second (1 on a real lab)
+  double accel_lsb_mps2 = 0.0;     // streamed count -> SI (0: from "sensor" model file)
+  double gyro_lsb_rad_s = 0.0;
   std::string db = "records.sqlite";  // SQLite path (relative: to the run's --out folder) or postgresql:// URL
   std::string model_path;          // solver model file (model-thermal.json shape)
   std::string sensor_hint;         // optional sensor-model file for nominal noise (bench-sim's part)
@@ -55,7 +58,7 @@ struct StationConfig {
   std::vector<VerificationPose> verification;
   std::string hmac_key_hex;              // device table key ("" = the test/demo key for the serial)
 
-  // The limit that applies to a parameter: exact name first, else the longest matching prefix pattern.
+  // The limit that applies to a parameter: exact name first, else the longest matching prefix.
   // Returns nullptr if none.
   const ParamLimit* limit_for(const std::string& param) const;
 };

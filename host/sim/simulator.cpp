@@ -145,7 +145,8 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
   TableGeometry geom_true = geometry_from_campaign(c);
   for (std::size_t i = 0; i < kMaxTableAxes; ++i) geom_true.axes[i].error = ex.axis_err[i];
   geom_true.mount.rot_error_rad = ex.mount_err;
-  const TableGeometry geom_nom = geom_true.nominal();
+  const TableGeometry geom_nom_g = geom_true.nominal();
+  const PreparedTable geom_nom(geom_nom_g), geom_tru(geom_true);
   const Site site{c.latitude_deg, c.height_m};
   const Eigen::Vector3d g_ned = gravity_ned(site), wie_ned = earth_rate_ned(site);
 
@@ -179,6 +180,8 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
   const double lat_s[2] = {tri[0].latency_s, tri[1].latency_s};
   const double ppm[2] = {tri[0].ppm * 1e-6, tri[1].ppm * 1e-6};
   const bool shifted[2] = {lat_s[0] != 0 || ppm[0] != 0, lat_s[1] != 0 || ppm[1] != 0};
+  // Accelerometer and gyro usually share one sample clock: evaluate the shifted motion once.
+  const bool same_shift = shifted[0] && shifted[1] && lat_s[0] == lat_s[1] && ppm[0] == ppm[1];
   const model::MeasureOptions mopt{false};  // timing realised exactly by the time shift below
 
   // Thermal state.
@@ -199,7 +202,7 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
   auto kin_at = [&](double t, std::size_t& cur, MotionSample* ms_out) {
     MotionSample ms = sample_motion(tl, t, cur);
     ImuKinematics k = ms.free ? free_kinematics(ms.C_imu_ned, ms.w_nb_imu, ms.wdot_nb_imu, g_ned, wie_ned)
-                              : table_kinematics(geom_true, ms.table, g_ned, wie_ned);
+                              : table_kinematics(geom_tru, ms.table, g_ned, wie_ned);
     if (ms.free) {
       // Hand-held: the IMU is not on the table; lever arm and mount do not apply.
     }
@@ -223,8 +226,10 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
     // --- motion: true kinematics (per sensor at its shifted time), reference from reported table
     MotionSample ms;
     ImuKinematics k0 = kin_at(t, cur_true, &ms);
+    ImuKinematics ks;
     for (int s = 0; s < 2; ++s) {
-      const ImuKinematics k = shifted[s] ? kin_at(t - lat_s[s] - ppm[s] * t, s ? cur_g : cur_a, nullptr) : k0;
+      if (shifted[s] && !(s == 1 && same_shift)) ks = kin_at(t - lat_s[s] - ppm[s] * t, s ? cur_g : cur_a, nullptr);
+      const ImuKinematics& k = shifted[s] ? ks : k0;
       in.f = k.f_mps2;
       in.w = k.w_rad_s;
       in.wdot = k.wdot_rad_s2;

@@ -37,38 +37,58 @@ TableGeometry TableGeometry::nominal() const {
   return g;
 }
 
+PreparedTable::PreparedTable(const TableGeometry& g) : n_axes(g.n_axes) {
+  if (n_axes < 0 || n_axes > kMaxTableAxes) throw std::invalid_argument("table: 0..3 axes");
+  for (int i = 0; i < kMaxTableAxes; ++i) {
+    const TableAxis& ax = g.axes[static_cast<std::size_t>(i)];
+    Eigen::Vector3d ea, eb;
+    perp(ax.axis_nominal, ea, eb);
+    a[static_cast<std::size_t>(i)] = (ax.axis_nominal + ax.error.tilt_a_rad * ea + ax.error.tilt_b_rad * eb).normalized();
+    S[static_cast<std::size_t>(i)] = skew(a[static_cast<std::size_t>(i)]);
+    S2[static_cast<std::size_t>(i)] = S[static_cast<std::size_t>(i)] * S[static_cast<std::size_t>(i)];
+    zero_rad[static_cast<std::size_t>(i)] = ax.error.zero_rad;
+  }
+  // Platform -> IMU: nominal mount times the small error rotation Exp([e×]).
+  const Eigen::Vector3d& e = g.mount.rot_error_rad;
+  const double en = e.norm();
+  const Eigen::Matrix3d Cerr = en > 0 ? rot(e / en, en) : Eigen::Matrix3d::Identity();
+  C_imu_plat = g.mount.C_imu_plat * Cerr;
+  lever_arm_m = g.mount.lever_arm_m;
+}
+
 ImuKinematics table_kinematics(const TableGeometry& geom, const TableState& st, const Eigen::Vector3d& g_ned,
+                               const Eigen::Vector3d& wie_ned) {
+  return table_kinematics(PreparedTable(geom), st, g_ned, wie_ned);
+}
+
+ImuKinematics table_kinematics(const PreparedTable& P, const TableState& st, const Eigen::Vector3d& g_ned,
                                const Eigen::Vector3d& wie_ned) {
   // Walk from the base (outermost axis) in to the platform, carrying the attitude C_child←base, the
   // table-relative rate w (child frame) and its child-frame derivative wd.
   Eigen::Matrix3d C = Eigen::Matrix3d::Identity();  // C_frame←ned
   Eigen::Vector3d w = Eigen::Vector3d::Zero(), wd = Eigen::Vector3d::Zero();
-  for (int i = geom.n_axes - 1; i >= 0; --i) {
-    const TableAxis& ax = geom.axes[static_cast<std::size_t>(i)];
-    Eigen::Vector3d ea, eb;
-    perp(ax.axis_nominal, ea, eb);
-    Eigen::Vector3d a = (ax.axis_nominal + ax.error.tilt_a_rad * ea + ax.error.tilt_b_rad * eb).normalized();
-    const double th = st.angle_rad[static_cast<std::size_t>(i)] + ax.error.zero_rad;
-    const double thd = st.rate_rad_s[static_cast<std::size_t>(i)];
-    const double thdd = st.accel_rad_s2[static_cast<std::size_t>(i)];
-    const Eigen::Matrix3d Rt = rot(a, th).transpose();  // child←parent
+  for (int i = P.n_axes - 1; i >= 0; --i) {
+    const std::size_t u = static_cast<std::size_t>(i);
+    const Eigen::Vector3d& a = P.a[u];
+    const double th = st.angle_rad[u] + P.zero_rad[u];
+    const double thd = st.rate_rad_s[u];
+    const double thdd = st.accel_rad_s2[u];
+    // Rodrigues, transposed (child←parent): Rᵀ = I − s[a×] + (1 − c)[a×]².
+    const double c = std::cos(th), s = std::sin(th);
+    const Eigen::Matrix3d Rt = Eigen::Matrix3d::Identity() - s * P.S[u] + (1.0 - c) * P.S2[u];
     const Eigen::Vector3d wp = Rt * w;
     // d/dt(Rᵀ) = −θ̇ [a×] Rᵀ (R leaves a invariant).
     wd = -thd * a.cross(wp) + Rt * wd + thdd * a;
     w = wp + thd * a;
     C = Rt * C;
   }
-  // Platform -> IMU: nominal mount times the small error rotation (Exp of the rotation vector).
-  const Eigen::Vector3d& e = geom.mount.rot_error_rad;
-  const double en = e.norm();
-  Eigen::Matrix3d Cerr = en > 0 ? rot(e / en, en) : Eigen::Matrix3d::Identity();
-  const Eigen::Matrix3d Cip = geom.mount.C_imu_plat * Cerr;
+  const Eigen::Matrix3d& Cip = P.C_imu_plat;
   // Inertial rate of the platform: Earth rate (constant in the Earth-fixed base) plus the table rate.
   const Eigen::Vector3d wie_p = C * wie_ned;
   const Eigen::Vector3d w_ib = wie_p + w;
   // Body-frame derivative of C·ω_ie: −ω_table × (C ω_ie). Same as the inertial derivative of ω_ib.
   const Eigen::Vector3d wd_ib = -w.cross(wie_p) + wd;
-  const Eigen::Vector3d& r = geom.mount.lever_arm_m;
+  const Eigen::Vector3d& r = P.lever_arm_m;
   // f = −g (plumb-bob: Earth's centripetal term already inside g) + rigid-body lever-arm acceleration.
   const Eigen::Vector3d f_p = -(C * g_ned) + wd_ib.cross(r) + w_ib.cross(w_ib.cross(r));
   ImuKinematics k;

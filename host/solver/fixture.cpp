@@ -13,6 +13,11 @@ namespace {
 // Plateaus are clusters of segment temperatures; chamber plateaus sit tens of °C apart while the die
 // drifts by well under this within one.
 constexpr double kPlateauTolerance_C = 3.0;
+// A block continues while the reference stays within these of its first sample: Earth rate turning with
+// the table (±5e-5 rad/s) and encoder noise on f_ref must not split a dwell into single samples.
+// The regressors are taken at the block mean; the error this leaves is O(Δu²/u²) < 1e-7 relative.
+constexpr double kBlockTolF_mps2 = 2e-3;
+constexpr double kBlockTolW_rad_s = 2e-4;
 
 bool is_temperature_effect(Effect e) {
   return e == Effect::kBiasTemp || e == Effect::kScaleTemp || e == Effect::kMisalignTemp;
@@ -96,11 +101,19 @@ void FixtureAccumulator::add(const io::LogRow& row) {
     for (int c = 0; c < kNumChannels; ++c) seg_stats_[static_cast<size_t>(c)].reset(static_cast<int>(ids_[static_cast<size_t>(c / 3)].size()));
   }
   const double key[7] = {row.f_ref[0], row.f_ref[1], row.f_ref[2], row.w_ref[0], row.w_ref[1], row.w_ref[2], d};
-  if (!in_block_ || !std::equal(key, key + 7, key_)) {
+  bool same = in_block_ && key[6] == key_[6];
+  for (int k = 0; same && k < 3; ++k)
+    same = std::abs(key[k] - key_[k]) <= kBlockTolF_mps2 && std::abs(key[3 + k] - key_[3 + k]) <= kBlockTolW_rad_s;
+  if (!same) {
     flush_block();
     std::copy(key, key + 7, key_);
     in_block_ = true;
     block_.reset(T);
+    block_u_.setZero();
+  }
+  for (int k = 0; k < 3; ++k) {
+    block_u_[k] += row.f_ref[k];
+    block_u_[3 + k] += row.w_ref[k];
   }
   double z[kNumChannels];
   for (int c = 0; c < kNumChannels; ++c) {
@@ -126,8 +139,11 @@ void FixtureAccumulator::flush_block() {
   const Eigen::Matrix4d S = block_.S();
   const Eigen::Matrix4d& v2c = node_to_coeff();
   model::MeasureInput in;
-  in.f = Eigen::Vector3d(key_[0], key_[1], key_[2]);
-  in.w = Eigen::Vector3d(key_[3], key_[4], key_[5]);
+  // Regressors at the block's mean input: they are linear in u for the basic and temperature terms, so
+  // Σ φ and Σ φ z are exact and Σ φφᵀ is off only by the input's within-block variance (second order).
+  const Eigen::Matrix<double, 6, 1> um = block_u_ / static_cast<double>(block_.n);
+  in.f = um.head<3>();
+  in.w = um.tail<3>();
   in.d = key_[6];
   for (int s = 0; s < 2; ++s) {
     const auto& ids = ids_[static_cast<size_t>(s)];

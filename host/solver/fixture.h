@@ -110,6 +110,7 @@ class FixtureAccumulator {
   double key_[7] = {};
   int block_segment_ = -1;
   BlockMoments block_;
+  Eigen::Matrix<double, 6, 1> block_u_ = Eigen::Matrix<double, 6, 1>::Zero();  // Σ f_ref, Σ w_ref
   bool in_segment_ = false;
   int seg_id_ = -1;
   ChannelSet seg_stats_;

@@ -1,6 +1,6 @@
 // Per-block sufficient statistics: the reason the solver's memory and time do not grow with samples.
 //
-// A *block* is a run of consecutive samples whose non-thermal inputs are identical (one dwell of the
+// A *block* is a run of consecutive samples whose non-thermal inputs are (nearly, see fixture.cpp) constant (one dwell of the
 // table: constant f, ω, hysteresis state). Within it the model's prediction and Jacobian depend on the
 // sample only through the temperature, and every catalog term is a polynomial of degree ≤ 3 in T.
 // With s = (T − T0)/kBlockTempScale, the block keeps

@@ -14,7 +14,7 @@
 using namespace imuforge::fw;
 
 #if defined(__arm__)
-constexpr int kSweepStride = 97;  // qemu: every 97th count (+ the edges), soft double is slow on M3
+constexpr int kSweepStride = 41;  // qemu: every 97th count (+ the edges), soft double is slow on M3
 constexpr bool kFullEdges = false;
 #else
 constexpr int kSweepStride = 1;  // host: every int16 value on every axis
@@ -42,6 +42,8 @@ static void reference(const Table& t, double T, const std::int32_t ra[3], const 
                                (static_cast<double>(t.breakpoints_degC[j]) - static_cast<double>(t.breakpoints_degC[i]))
                          : 0.0;
   auto L = [w](float a, float b) { return static_cast<double>(a) + w * (static_cast<double>(b) - static_cast<double>(a)); };
+  // Float interpolation rounds relative to the end points, not to the (possibly cancelled) result.
+  auto Mx = [](float a, float b) { return absd(static_cast<double>(a)) > absd(static_cast<double>(b)) ? absd(static_cast<double>(a)) : absd(static_cast<double>(b)); };
   const BreakpointCoeffs& c0 = t.coeffs[i];
   const BreakpointCoeffs& c1 = t.coeffs[j];
   const double la = static_cast<double>(t.accel_lsb_mps2), lg = static_cast<double>(t.gyro_lsb_rad_s);
@@ -51,7 +53,7 @@ static void reference(const Table& t, double T, const std::int32_t ra[3], const 
       const double c = L(c0.accel.C[3 * row + k], c1.accel.C[3 * row + k]);
       const double u = ra[k] * la, b = L(c0.accel.b[k], c1.accel.b[k]);
       s += c * (u - b);
-      m += absd(c) * (absd(u) + absd(b));
+      m += Mx(c0.accel.C[3 * row + k], c1.accel.C[3 * row + k]) * (absd(u) + Mx(c0.accel.b[k], c1.accel.b[k]));
     }
     r->accel[row] = s;
     r->mag_a[row] = m;
@@ -63,7 +65,8 @@ static void reference(const Table& t, double T, const std::int32_t ra[3], const 
       const double u = rg[k] * lg, b = L(c0.gyro.b[k], c1.gyro.b[k]);
       const double g = L(c0.G[3 * row + k], c1.G[3 * row + k]);
       s += c * (u - b) + g * r->accel[k];
-      m += absd(c) * (absd(u) + absd(b)) + absd(g) * r->mag_a[k];
+      m += Mx(c0.gyro.C[3 * row + k], c1.gyro.C[3 * row + k]) * (absd(u) + Mx(c0.gyro.b[k], c1.gyro.b[k])) +
+           Mx(c0.G[3 * row + k], c1.G[3 * row + k]) * r->mag_a[k];
     }
     r->gyro[row] = s;
     r->mag_g[row] = m;
@@ -103,10 +106,15 @@ static void check_sample(const Table& t, const std::int16_t ra16[3], const std::
 
   bool sat = false;
   for (int k = 0; k < 3; ++k) sat = sat || ra[k] == -32768 || ra[k] == 32767 || rg[k] == -32768 || rg[k] == 32767;
-  FW_EXPECT_EQ_INT((sq & kStatusTempClamped) != 0, r.clamped);
+  // The fixed path holds breakpoints in Q16.16 °C (rounded): within 2^-16 °C of an end, its clamp flag
+  // may legitimately differ from the float one.
+  const double e0 = static_cast<double>(t.breakpoints_degC[0]);
+  const double e1 = static_cast<double>(t.breakpoints_degC[t.n_breakpoints - 1]);
+  const bool near_end = absd(T - e0) <= 1.0 / 65536 || absd(T - e1) <= 1.0 / 65536;
+  if (!near_end) FW_EXPECT_EQ_INT((sq & kStatusTempClamped) != 0, r.clamped);
   FW_EXPECT_EQ_INT((sf & kStatusTempClamped) != 0, r.clamped);
   FW_EXPECT_EQ_INT((sq & kStatusInputSaturated) != 0, sat);
-  FW_EXPECT_EQ_INT(sq, sf);
+  if (!near_end) FW_EXPECT_EQ_INT(sq, sf);
 
   const double u = 1.0 / 16777216.0;  // 2^-24, float unit roundoff
   for (int k = 0; k < 3; ++k) {

@@ -1,0 +1,164 @@
+// `imuforge can`: talk to an imuforge CAN node (docs/can-protocol.md).
+//   imuforge can identify   --bus virtual:bench1 --node 1
+//   imuforge can status     --bus ... --node ...
+//   imuforge can stream     --bus ... --node ... --rate 1000 --seconds 5 [--out samples.csv]
+//   imuforge can read-table --bus ... --node ... --out table.bin
+//   imuforge can flash      --bus ... --node ... --table table.bin --seq 7 (--key-hex K | --dev-key)
+//   imuforge can reboot     --bus ... --node ...
+// Exit codes (host/app/command.h): 0 ok, 1 refused table / bad file, 2 usage, 3 bus or node failure.
+#include <chrono>
+#include <cinttypes>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <iterator>
+#include <mutex>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+
+#include "firmware/table/table.h"
+#include "host/app/command.h"
+#include "host/can/client.h"
+#include "host/vimu/virtual_imu.h"
+
+namespace {
+
+using namespace imuforge;
+
+int run_can(int argc, char** argv) {
+  CLI::App app{"talk to an imuforge CAN node: identify, status, stream, read-table, flash, reboot"};
+  app.require_subcommand(1);
+  std::string bus = "virtual:imuforge";
+  unsigned node = 1;
+  bool ext = false;
+  int timeout_ms = 1000;
+  app.add_option("--bus", bus, "virtual:<name> or socketcan:<ifname>")->capture_default_str();
+  app.add_option("--node", node, "node id 0..63")->check(CLI::Range(0, 63))->capture_default_str();
+  app.add_flag("--ext", ext, "29-bit identifiers");
+  app.add_option("--timeout-ms", timeout_ms, "per-request timeout")->capture_default_str();
+  auto* c_id = app.add_subcommand("identify", "serial, firmware version, active table");
+  auto* c_st = app.add_subcommand("status", "node counters");
+  auto* c_stream = app.add_subcommand("stream", "stream samples and report lost/duplicated/reordered counts");
+  unsigned rate = 1000, channels = 7;
+  double seconds = 2.0;
+  std::string out;
+  c_stream->add_option("--rate", rate, "Hz, 1..2000")->check(CLI::Range(1, 2000))->capture_default_str();
+  c_stream->add_option("--channels", channels, "1 accel, 2 gyro, 4 temp (sum)")->check(CLI::Range(1, 7))->capture_default_str();
+  c_stream->add_option("--seconds", seconds, "duration")->capture_default_str();
+  c_stream->add_option("--out", out, "write samples as CSV");
+  auto* c_read = app.add_subcommand("read-table", "read the active coefficient table");
+  c_read->add_option("--out", out, "output file")->required();
+  auto* c_flash = app.add_subcommand("flash", "write, commit and verify a coefficient table");
+  std::string table_path, key_hex;
+  std::uint32_t seq = 0;
+  bool dev_key = false;
+  c_flash->add_option("--table", table_path, "table v1 file")->required()->check(CLI::ExistingFile);
+  c_flash->add_option("--seq", seq, "sequence number (default: the table's own table_sequence)");
+  c_flash->add_option("--key-hex", key_hex, "device key, 64 hex digits");
+  c_flash->add_flag("--dev-key", dev_key, "use the public development key of the node's serial (virtual IMU)");
+  auto* c_reboot = app.add_subcommand("reboot", "reset the node");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? app::kExitOk : app::kExitUsage;
+  }
+  if (c_flash->parsed() && key_hex.empty() == !dev_key) {
+    std::cerr << "imuforge can flash: give exactly one of --key-hex and --dev-key\n";
+    return app::kExitUsage;
+  }
+  try {
+    can::Client::Options o;
+    o.extended_ids = ext;
+    o.timeout_ms = timeout_ms;
+    auto c = can::Client::connect(bus, static_cast<std::uint8_t>(node), o);
+    if (c_id->parsed()) {
+      const auto id = c->identify();
+      std::printf("serial %" PRIu64 "\nfirmware %s\nnode %u (%s ids)\nkey %s\n", id.serial, id.fw_version.c_str(),
+                  id.node_id, id.extended_ids ? "29-bit" : "11-bit", id.key_provisioned ? "provisioned" : "MISSING");
+      if (id.table_present) {
+        std::printf("table seq %u, %u bytes, crc32 0x%08x\n", id.table_seq, id.table_len, id.table_crc32);
+      } else {
+        std::printf("table none\n");
+      }
+    } else if (c_st->parsed()) {
+      const auto s = c->status();
+      std::printf("uptime_ms %u\nboots %u\nsamples_sent %u\nstream_frames_tx %u\nstream_frames_dropped %u\n"
+                  "bus_off_events %u\nisotp_rx_errors %u\nisotp_tx_errors %u\ncommands_ok %u\ncommands_rejected %u\n"
+                  "auth_failures %u\nactive_slot %d\nstaged_slot %d\nstreaming %d (%u Hz, channels %u)\n",
+                  s.uptime_ms, s.boots, s.samples_sent, s.stream_frames_tx, s.stream_frames_dropped, s.bus_off_events,
+                  s.isotp_rx_errors, s.isotp_tx_errors, s.commands_ok, s.commands_rejected, s.auth_failures,
+                  s.active_slot, s.staged_slot, s.streaming ? 1 : 0, s.rate_hz, s.channels);
+    } else if (c_stream->parsed()) {
+      std::ofstream csv;
+      if (!out.empty()) {
+        csv.open(out);
+        if (!csv) {
+          std::cerr << "imuforge can stream: cannot write " << out << "\n";
+          return app::kExitFailed;
+        }
+        csv << "seq,t_us,ax,ay,az,gx,gy,gz,temp_cdegC\n";
+      }
+      std::mutex mu;
+      c->start_stream(static_cast<std::uint16_t>(rate), static_cast<std::uint8_t>(channels),
+                      [&](const can::StreamSample& s) {
+                        if (!csv.is_open()) return;
+                        std::lock_guard<std::mutex> lk(mu);
+                        csv << s.seq << ',' << s.t_us << ',' << s.accel_counts[0] << ',' << s.accel_counts[1] << ','
+                            << s.accel_counts[2] << ',' << s.gyro_counts[0] << ',' << s.gyro_counts[1] << ','
+                            << s.gyro_counts[2] << ',' << s.temp_cdegC << '\n';
+                      });
+      std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+      c->stop_stream();
+      const auto k = c->stream_counters();
+      std::printf("received %" PRIu64 " lost %" PRIu64 " incomplete %" PRIu64 " duplicated %" PRIu64
+                  " reordered %" PRIu64 " frames %" PRIu64 " frames_lost %" PRIu64 "\n",
+                  k.received, k.lost, k.incomplete, k.duplicated, k.reordered, k.frames, k.frames_lost);
+    } else if (c_read->parsed()) {
+      std::uint32_t s = 0;
+      const auto t = c->read_table(&s);
+      std::ofstream f(out, std::ios::binary);
+      f.write(reinterpret_cast<const char*>(t.data()), static_cast<std::streamsize>(t.size()));
+      if (!f) {
+        std::cerr << "imuforge can read-table: cannot write " << out << "\n";
+        return app::kExitFailed;
+      }
+      std::printf("table seq %u, %zu bytes -> %s\n", s, t.size(), out.c_str());
+    } else if (c_flash->parsed()) {
+      std::ifstream f(table_path, std::ios::binary);
+      std::vector<std::uint8_t> t((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+      static fw::Table parsed;
+      const int rc = fw::table_parse(t.data(), t.size(), &parsed);
+      if (rc != 0) {
+        std::cerr << "imuforge can flash: " << table_path << " is not a valid table v1: " << fw::table_strerror(rc) << "\n";
+        return app::kExitFailed;
+      }
+      if (seq == 0) seq = parsed.table_sequence;
+      const auto id = c->identify();
+      if (parsed.device_serial != id.serial) {
+        std::cerr << "imuforge can flash: table is for serial " << parsed.device_serial << ", node " << node
+                  << " has serial " << id.serial << "\n";
+        return app::kExitFailed;
+      }
+      const can::Key key = dev_key ? vimu::dev_key_for_serial(id.serial) : can::key_from_hex(key_hex);
+      const auto t0 = std::chrono::steady_clock::now();
+      c->flash_table(t, seq, key, id.serial);
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      std::printf("flashed table seq %u (%zu bytes) in %.1f ms, verified by read-back\n", seq, t.size(), ms);
+    } else if (c_reboot->parsed()) {
+      c->reboot();
+      std::printf("node %u rebooting\n", node);
+    }
+  } catch (const can::Error& e) {
+    std::cerr << "imuforge can: " << e.what() << "\n";
+    return e.is_peer_refusal() ? app::kExitFailed : app::kExitPeer;
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "imuforge can: " << e.what() << "\n";
+    return app::kExitUsage;
+  }
+  return app::kExitOk;
+}
+
+}  // namespace
+
+IMUFORGE_COMMAND(can, "talk to an imuforge CAN node: identify, status, stream, read-table, flash, reboot", run_can);

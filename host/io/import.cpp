@@ -1,0 +1,235 @@
+#include "host/io/import.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <vector>
+
+namespace imuforge::io {
+
+namespace {
+
+constexpr double kG = 9.80665;
+
+std::string base_name(const std::string& p) {
+  auto s = p.find_last_of('/');
+  std::string b = s == std::string::npos ? p : p.substr(s + 1);
+  auto d = b.find_last_of('.');
+  return d == std::string::npos ? b : b.substr(0, d);
+}
+
+// Splits on any run of the separators; fields are views into line.
+void split(const std::string& line, const char* seps, std::vector<std::string>& out) {
+  out.clear();
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && std::strchr(seps, line[i])) ++i;
+    if (i >= line.size()) break;
+    std::size_t j = i;
+    while (j < line.size() && !std::strchr(seps, line[j])) ++j;
+    out.push_back(line.substr(i, j - i));
+    i = j;
+  }
+}
+
+double to_double(const std::string& s, const std::string& where) {
+  double v;
+  const char* b = s.data();
+  if (!s.empty() && *b == '+') ++b;
+  auto r = std::from_chars(b, s.data() + s.size(), v);
+  if (r.ec != std::errc() || r.ptr != s.data() + s.size() || !std::isfinite(v))
+    throw LogError(where + ": expected a number, got '" + s + "'");
+  return v;
+}
+
+std::int32_t to_count(const std::string& s, double lo, double hi, const std::string& where) {
+  double v = to_double(s, where);
+  if (v != std::floor(v) || v < lo || v > hi)
+    throw LogError(where + ": expected an integer count in [" + std::to_string(static_cast<long>(lo)) + ", " +
+                   std::to_string(static_cast<long>(hi)) + "], got '" + s + "'");
+  return static_cast<std::int32_t>(v);
+}
+
+struct XsensRow {
+  double t;
+  std::int32_t v[3];
+};
+
+// Reads one `t x y z` line; false at EOF. Blank lines are skipped.
+bool xsens_line(std::ifstream& f, const std::string& path, std::size_t& line_no, std::vector<std::string>& cells,
+                XsensRow& r) {
+  std::string line;
+  while (std::getline(f, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    split(line, " \t", cells);
+    if (cells.empty()) continue;
+    const std::string where = path + ":" + std::to_string(line_no);
+    if (cells.size() != 4) throw LogError(where + ": expected 4 columns (t x y z), got " + std::to_string(cells.size()));
+    r.t = to_double(cells[0], where + ": column 1 (t)");
+    for (int k = 0; k < 3; ++k)
+      r.v[k] = to_count(cells[static_cast<std::size_t>(k + 1)], 0, 65535, where + ": column " + std::to_string(k + 2)) -
+               32768;
+    return true;
+  }
+  if (f.bad()) throw LogError(path + ": read error");
+  return false;
+}
+
+ImportSummary import_xsens(const ImportOptions& o, const std::string& out, LogEncoding enc) {
+  if (o.in_gyro.empty()) throw LogError("xsens-imutk import needs --in ACC.txt and --in-gyro GYRO.txt");
+  // Pass 1: sample rate from the median interval (the files carry a time column).
+  std::ifstream fa(o.in), fg(o.in_gyro);
+  if (!fa) throw LogError(o.in + ": cannot open");
+  if (!fg) throw LogError(o.in_gyro + ": cannot open");
+  std::vector<std::string> cells;
+  double fs = o.sample_rate_hz;
+  double t_first = 0;
+  {
+    std::size_t ln = 0;
+    XsensRow r;
+    std::vector<double> dts;
+    double prev = std::nan("");
+    while (dts.size() < 2000 && xsens_line(fa, o.in, ln, cells, r)) {
+      if (std::isnan(prev)) t_first = r.t;
+      else dts.push_back(r.t - prev);
+      prev = r.t;
+    }
+    if (std::isnan(prev)) throw LogError(o.in + ": no samples");
+    if (!(fs > 0)) {
+      if (dts.empty()) throw LogError(o.in + ": need at least two samples to infer the sample rate");
+      std::nth_element(dts.begin(), dts.begin() + static_cast<long>(dts.size() / 2), dts.end());
+      const double med = dts[dts.size() / 2];
+      if (!(med > 0)) throw LogError(o.in + ": timestamps do not increase");
+      fs = std::round(1.0 / med * 1000.0) / 1000.0;
+    }
+    fa.clear();
+    fa.seekg(0);
+  }
+  LogMeta m;
+  m.serial = o.serial.empty() ? "xsens-mti-imutk" : o.serial;
+  m.sample_rate_hz = fs;
+  m.accel_lsb_mps2 = 1.0 / 415.0;
+  m.gyro_lsb_rad_s = 1.0 / 4770.0;
+  m.set("source", "imported: xsens-imutk (IMU-TK test data, Xsens MTi)");
+  m.set("lsb_note", "nominal sensitivities from the data README (unverified starting values)");
+  m.set("raw_offset", "32768");
+  m.set("t0_s", std::to_string(t_first));
+  m.set("input_accel", base_name(o.in));
+  m.set("input_gyro", base_name(o.in_gyro));
+  LogWriter w(out, m, enc);
+  std::size_t la = 0, lg = 0;
+  XsensRow a, g;
+  LogRow row;
+  ImportSummary sum;
+  double prev_t = -1e300;
+  while (true) {
+    bool ha = xsens_line(fa, o.in, la, cells, a);
+    bool hg = xsens_line(fg, o.in_gyro, lg, cells, g);
+    if (ha != hg)
+      throw LogError(std::string(ha ? o.in_gyro : o.in) + ": ends after " + std::to_string(sum.rows) +
+                     " samples but the other file continues (files must have identical timestamps)");
+    if (!ha) break;
+    if (std::fabs(a.t - g.t) > 1e-6)
+      throw LogError(o.in_gyro + ":" + std::to_string(lg) + ": timestamp " + std::to_string(g.t) +
+                     " differs from the accelerometer's " + std::to_string(a.t) + " (" + o.in + ":" +
+                     std::to_string(la) + ")");
+    if (!(a.t > prev_t)) throw LogError(o.in + ":" + std::to_string(la) + ": timestamps must increase");
+    prev_t = a.t;
+    row.t_s = a.t - t_first;
+    row.segment = -1;
+    row.has_ref = false;
+    for (int k = 0; k < 3; ++k) {
+      row.raw[k] = a.v[k];
+      row.raw[3 + k] = g.v[k];
+    }
+    w.write(row);
+    ++sum.rows;
+    sum.duration_s = row.t_s;
+  }
+  w.close();
+  sum.sample_rate_hz = fs;
+  return sum;
+}
+
+ImportSummary import_mpu6050(const ImportOptions& o, const std::string& out, LogEncoding enc) {
+  std::ifstream f(o.in);
+  if (!f) throw LogError(o.in + ": cannot open");
+  std::string line;
+  std::vector<std::string> cells;
+  std::size_t ln = 0;
+  double fs = 0;
+  std::vector<std::pair<std::string, std::string>> file_meta;
+  // Metadata rows until the header `ax,ay,az,gx,gy,gz`.
+  while (true) {
+    if (!std::getline(f, line)) throw LogError(o.in + ": no header line 'ax,ay,az,gx,gy,gz'");
+    ++ln;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    split(line, ",", cells);
+    if (cells.size() == 6 && cells[0] == "ax") {
+      const char* want[6] = {"ax", "ay", "az", "gx", "gy", "gz"};
+      for (int k = 0; k < 6; ++k)
+        if (cells[static_cast<std::size_t>(k)] != want[k])
+          throw LogError(o.in + ":" + std::to_string(ln) + ": header column " + std::to_string(k + 1) + " is '" +
+                         cells[static_cast<std::size_t>(k)] + "', expected '" + want[k] + "'");
+      break;
+    }
+    if (cells.size() == 2) {
+      file_meta.emplace_back(cells[0], cells[1]);
+      if (cells[0] == "Fs") fs = to_double(cells[1], o.in + ":" + std::to_string(ln) + ": Fs");
+    } else if (!cells.empty()) {
+      throw LogError(o.in + ":" + std::to_string(ln) + ": expected a 'key,value' metadata row or the header");
+    }
+  }
+  if (o.sample_rate_hz > 0) fs = o.sample_rate_hz;
+  if (!(fs > 0)) fs = 100.0;  // the README: 100 Hz
+  LogMeta m;
+  m.serial = o.serial.empty() ? "mpu6050-" + base_name(o.in) : o.serial;
+  m.sample_rate_hz = fs;
+  m.accel_lsb_mps2 = kG / 16384.0;
+  m.gyro_lsb_rad_s = M_PI / 180.0 / 131.0;
+  m.set("source", "imported: mpu6050-csv (tomisuarez2/ImuCalibration, InvenSense MPU-6050)");
+  m.set("lsb_note", "nominal sensitivities of the configured ranges (+-2 g, +-250 dps), not a calibration");
+  m.set("time_note", "no time column in the recording: t_s synthesised as i / Fs");
+  m.set("input", base_name(o.in));
+  for (const auto& [k, v] : file_meta) {
+    std::string key = "file.";
+    for (char c : k) key += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+    m.set(key, v);
+  }
+  LogWriter w(out, m, enc);
+  LogRow row;
+  row.segment = -1;
+  row.has_ref = false;
+  ImportSummary sum;
+  while (std::getline(f, line)) {
+    ++ln;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    split(line, ",", cells);
+    if (cells.empty()) continue;
+    const std::string where = o.in + ":" + std::to_string(ln);
+    if (cells.size() != 6) throw LogError(where + ": expected 6 columns, got " + std::to_string(cells.size()));
+    for (std::size_t k = 0; k < 6; ++k)
+      row.raw[k] = to_count(cells[k], -32768, 32767, where + ": column " + std::to_string(k + 1));
+    row.t_s = static_cast<double>(sum.rows) / fs;
+    w.write(row);
+    sum.duration_s = row.t_s;
+    ++sum.rows;
+  }
+  if (f.bad()) throw LogError(o.in + ": read error");
+  w.close();
+  sum.sample_rate_hz = fs;
+  return sum;
+}
+
+}  // namespace
+
+ImportSummary import_recording(const ImportOptions& opt, const std::string& out_path, LogEncoding enc) {
+  if (opt.format == "xsens-imutk") return import_xsens(opt, out_path, enc);
+  if (opt.format == "mpu6050-csv") return import_mpu6050(opt, out_path, enc);
+  throw LogError("unknown import format '" + opt.format + "' (expected xsens-imutk or mpu6050-csv)");
+}
+
+}  // namespace imuforge::io

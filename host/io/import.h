@@ -1,0 +1,40 @@
+// Conversion of real recordings (../shared/data/real, see its README) to log v1 with empty references.
+//
+//   xsens-imutk  IMU-TK test data: two space-separated files `t x y z` (accel, gyro) with identical
+//                timestamps, raw unsigned 16-bit counts about 32768. Converted to signed counts
+//                (raw − 32768); metadata raw_offset=32768 records the shift. Nominal LSBs from the README:
+//                accel 1/415 m/s² per count, gyro 1/4770 rad/s per count (starting values, not a calibration).
+//   mpu6050-csv  tomisuarez2/ImuCalibration: metadata rows (`Fs,100`, …), header `ax,ay,az,gx,gy,gz`,
+//                int16 counts; no time column, so t_s = i / Fs. Nominal LSBs from the configured ranges:
+//                accel ±2 g = 9.80665/16384 m/s², gyro ±250 °/s = (π/180)/131 rad/s.
+// Both: temperature unknown (temp_C, chamber_C empty = NaN), has_ref = false, segment = −1 (no
+// fixture schedule: reference-free consumers detect static intervals themselves), table_axes = 0.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "host/io/log.h"
+
+namespace imuforge::io {
+
+struct ImportOptions {
+  std::string format;      // "xsens-imutk" or "mpu6050-csv"
+  std::string in;          // accel file (xsens) or the CSV (mpu6050)
+  std::string in_gyro;     // xsens only
+  std::string serial;      // written to metadata ("" -> derived from the file name)
+  double sample_rate_hz = 0;  // 0 = from the file (xsens: median Δt; mpu6050: its Fs row)
+};
+
+struct ImportSummary {
+  std::uint64_t rows = 0;
+  double duration_s = 0;
+  double sample_rate_hz = 0;
+};
+
+// Writes the converted log to `out_path` (encoding by extension, or `enc`). Throws LogError naming the
+// input file, line and column on malformed input.
+ImportSummary import_recording(const ImportOptions& opt, const std::string& out_path,
+                               LogEncoding enc = LogEncoding::kAuto);
+
+}  // namespace imuforge::io

@@ -1,0 +1,33 @@
+// From a calibration to the firmware coefficient table (docs/table-format.md), with the quantisation
+// check: the firmware kernel itself (compiled for the host) compensates the calibration log with the
+// table, and the difference to a double-precision compensation with the same estimate must stay below
+// 0.1 σ of the sensor noise on every channel.
+#pragma once
+
+#include <array>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "host/io/log.h"
+#include "host/solver/calfile.h"
+
+namespace imuforge::solver {
+
+struct TableReport {
+  bool ok = false;
+  std::size_t bytes = 0;
+  std::array<double, 6> rms_diff{};   // RMS (kernel − double) per channel, SI
+  std::array<double, 6> ratio{};      // rms_diff / noise σ
+  double worst_ratio = 0.0;
+  std::string worst_channel;
+  long long samples = 0;
+  nlohmann::json to_json() const;
+};
+
+// Writes the table to path and runs the check over the log (rewound). Throws SolverError when the
+// estimate cannot be expressed in the table (e.g. an effect the kernel does not implement).
+TableReport write_coefficient_table(const CalibrationResult& res, io::LogReader& log, const std::string& path,
+                                    const std::string& serial);
+
+}  // namespace imuforge::solver

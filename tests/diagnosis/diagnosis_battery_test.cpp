@@ -1,0 +1,186 @@
+// Blind-case battery (docs/diagnosis.md § Validation): for each catalog effect beyond the basic ones, a
+// campaign that excites it is simulated in-process (host/sim) with the effect at 10× its standard error
+// for that campaign, and the model given to the diagnosis lacks it. Null cases and a two-effect case too.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "tests/diagnosis/sim_helpers.h"
+
+using namespace diagtest;
+namespace model = imuforge::model;
+
+namespace {
+
+constexpr int kSeeds = 5;
+constexpr double kFsRich = 20.0, kFsThermal = 5.0;
+
+struct Target {
+  std::string sensor, effect, component, axis;  // axis the component acts on ("accel.x")
+  bool thermal;
+};
+
+const std::vector<Target>& targets() {
+  static const std::vector<Target> t = {
+      {"accel", "bias_temp", "x.t1", "accel.x", false},
+      {"accel", "scale_temp", "z.t1", "accel.z", false},
+      {"gyro", "misalign_temp", "xy.t1", "gyro.x", false},
+      {"accel", "scale_nonlinearity", "x.k2", "accel.x", false},
+      {"gyro", "scale_asymmetry", "z", "gyro.z", false},
+      {"accel", "cross_coupling", "xy", "accel.x", false},
+      {"gyro", "cross_coupling", "zx", "gyro.z", false},
+      {"gyro", "g_sensitivity", "xz", "gyro.x", false},
+      {"gyro", "g2_sensitivity", "y.yz", "gyro.y", false},
+      {"accel", "size_effect", "x.rx", "accel.x", false},
+      {"gyro", "timing", "latency_s", "", false},
+      {"accel", "temp_hysteresis", "x", "accel.x", true},
+      {"gyro", "temp_rate", "z", "gyro.z", true},
+  };
+  return t;
+}
+
+dg::Options options_for(bool thermal) {
+  dg::Options o;
+  o.folds = 5;
+  (void)thermal;
+  return o;
+}
+
+// Standard error of every candidate component, from the augmented fit's Fisher information on a null run.
+std::map<std::string, double> standard_errors(const std::vector<dg::Sample>& null_data, const dg::BaseModel& base, bool thermal,
+                                              dg::DiagnosisResult* out) {
+  dg::VectorSource src(null_data);
+  dg::Options o = options_for(thermal);
+  o.max_steps = 0;
+  dg::DiagnosisResult r = dg::diagnose(src, base, o);
+  std::map<std::string, double> se;
+  std::map<std::string, double> inv_var;  // timing: per-axis relaxation combined by inverse variance
+  for (const auto& c : r.ranking)
+    for (const auto& m : c.magnitude) {
+      se[m.name + "@" + m.axis] = m.sigma;
+      inv_var[m.name] += 1.0 / (m.sigma * m.sigma);
+    }
+  for (auto& [k, v] : inv_var) se[k + "@"] = 1.0 / std::sqrt(v);
+  if (out) *out = r;
+  return se;
+}
+
+// Estimated value and σ of a component (timing: inverse-variance combination over axes).
+bool estimate_of(const dg::DiagnosisResult& r, const std::string& name, const std::string& axis, double& v, double& s) {
+  double sw = 0, swv = 0;
+  for (const auto& c : r.ranking)
+    for (const auto& m : c.magnitude)
+      if (m.name == name && (axis.empty() || m.axis == axis)) {
+        sw += 1.0 / (m.sigma * m.sigma);
+        swv += m.value / (m.sigma * m.sigma);
+      }
+  if (sw == 0) return false;
+  v = swv / sw;
+  s = 1.0 / std::sqrt(sw);
+  return true;
+}
+
+double gap_shrink(const dg::DiagnosisResult& r, const std::string& sensor) {
+  double b = 0, a = 0;
+  const int a0 = sensor == "accel" ? 0 : 3;
+  for (int i = a0; i < a0 + 3; ++i) {
+    b += std::max(0.0, r.gap_before.gap[static_cast<std::size_t>(i)]);
+    a += std::max(0.0, r.gap_after.gap[static_cast<std::size_t>(i)]);
+  }
+  return b > 0 ? 100.0 * (1.0 - a / b) : 0.0;
+}
+
+struct Campaigns {
+  json rich = rich_campaign({25.0, 35.0}, kFsRich);
+  json thermal = thermal_campaign(kFsThermal);
+};
+
+}  // namespace
+
+TEST(DiagnosisBattery, BlindCasesNullCasesAndTwoEffects) {
+  Campaigns C;
+  const dg::BaseModel basic = dg::basic_model(), thermal_base_model = diagtest::thermal_base();
+
+  // Null runs: standard errors (seed 1000) and the null cases.
+  dg::DiagnosisResult null_rich, null_thermal;
+  auto se_rich = standard_errors(simulate(C.rich, base_sensor(false), 1000), basic, false, &null_rich);
+  auto se_thermal = standard_errors(simulate(C.thermal, base_sensor(true), 1000), thermal_base_model, true, &null_thermal);
+
+  int null_cases = 0, null_clean = 0;
+  for (int seed = 1; seed <= 10; ++seed) {
+    for (bool thermal : {false, true}) {
+      auto data = thermal ? simulate(C.thermal, base_sensor(true), 2000 + seed) : simulate(C.rich, base_sensor(false), 2000 + seed);
+      dg::VectorSource src(data);
+      dg::DiagnosisResult r = dg::diagnose(src, thermal ? thermal_base_model : basic, options_for(thermal));
+      ++null_cases;
+      bool any = false;
+      for (const auto& c : r.ranking) any |= c.significant;
+      null_clean += any ? 0 : 1;
+      if (any) std::printf("null %s seed %d: %s.%s reported (p=%.3g)\n", thermal ? "thermal" : "rich", seed, r.ranking[0].sensor.c_str(),
+                           r.ranking[0].effect.c_str(), r.ranking[0].p_value);
+    }
+  }
+  std::printf("null cases: %d/%d with nothing significant (family-wise alpha 0.01, Bonferroni)\n", null_clean, null_cases);
+  EXPECT_GE(null_clean, static_cast<int>(std::ceil(0.95 * null_cases)));
+
+  int cases = 0, first = 0, within3 = 0, shrink80 = 0;
+  for (const auto& T : targets()) {
+    const std::string pname = T.sensor + "." + T.effect + "." + T.component;
+    const auto& se = T.thermal ? se_thermal : se_rich;
+    auto it = se.find(pname + "@" + T.axis);
+    ASSERT_NE(it, se.end()) << pname << " has no standard error: the campaign does not excite it";
+    const double sigma = it->second, truth = 10.0 * sigma;
+    int t_first = 0, t_within = 0, t_shrink = 0;
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+      json extra = {{T.sensor + "." + T.effect, {{T.component, truth}}}};
+      auto data = T.thermal ? simulate(C.thermal, base_sensor(true, extra), 100 * seed + 7)
+                            : simulate(C.rich, base_sensor(false, extra), 100 * seed + 7);
+      dg::VectorSource src(data);
+      dg::DiagnosisResult r = dg::diagnose(src, T.thermal ? thermal_base_model : basic, options_for(T.thermal));
+      ++cases;
+      const bool is_first = !r.ranking.empty() && r.ranking[0].effect == T.effect && r.ranking[0].sensor == T.sensor;
+      double v = 0, s = 0;
+      const bool has = estimate_of(r, pname, T.axis, v, s);
+      const bool ok3 = has && std::fabs(v - truth) <= 3.0 * s;
+      const double shrink = gap_shrink(r, T.sensor);
+      t_first += is_first;
+      t_within += ok3;
+      t_shrink += shrink >= 80.0;
+      if (!is_first || !ok3 || shrink < 80.0)
+        std::printf("  %s seed %d: first=%s.%s est=%.4g+/-%.2g truth=%.4g shrink=%.0f%%\n", pname.c_str(), seed,
+                    r.ranking.empty() ? "-" : r.ranking[0].sensor.c_str(), r.ranking.empty() ? "-" : r.ranking[0].effect.c_str(), v, s,
+                    truth, shrink);
+    }
+    std::printf("%-36s truth %.4g (10 sigma): ranked first %d/%d, within 3 sigma %d/%d, gap shrink>=80%% %d/%d\n", pname.c_str(), truth,
+                t_first, kSeeds, t_within, kSeeds, t_shrink, kSeeds);
+    first += t_first;
+    within3 += t_within;
+    shrink80 += t_shrink;
+  }
+  std::printf("blind cases: %d; ranked first %d (%.0f%%), magnitude within 3 sigma %d (%.0f%%), gap shrink >= 80%% %d (%.0f%%)\n", cases,
+              first, 100.0 * first / cases, within3, 100.0 * within3 / cases, shrink80, 100.0 * shrink80 / cases);
+  EXPECT_GE(first, static_cast<int>(std::ceil(0.95 * cases)));
+  EXPECT_GE(within3, static_cast<int>(std::ceil(0.95 * cases)));
+  EXPECT_GE(shrink80, static_cast<int>(std::ceil(0.95 * cases)));
+
+  // Two effects at once: both must be selected.
+  int both = 0;
+  for (int seed = 1; seed <= kSeeds; ++seed) {
+    json extra = {{"accel.bias_temp", {{"x.t1", 10.0 * se_rich.at("accel.bias_temp.x.t1@accel.x")}}},
+                  {"gyro.g_sensitivity", {{"xz", 10.0 * se_rich.at("gyro.g_sensitivity.xz@gyro.x")}}}};
+    auto data = simulate(C.rich, base_sensor(false, extra), 900 + seed);
+    dg::VectorSource src(data);
+    dg::DiagnosisResult r = dg::diagnose(src, basic, options_for(false));
+    bool a = false, g = false;
+    for (const auto& s : r.selected) {
+      a |= s.sensor == "accel" && s.effect == "bias_temp";
+      g |= s.sensor == "gyro" && s.effect == "g_sensitivity";
+    }
+    both += a && g;
+    if (!(a && g)) std::printf("  two-effect seed %d: accel.bias_temp %s, gyro.g_sensitivity %s\n", seed, a ? "found" : "MISSED", g ? "found" : "MISSED");
+  }
+  std::printf("two effects at once: both found in %d/%d\n", both, kSeeds);
+  EXPECT_EQ(both, kSeeds);
+}

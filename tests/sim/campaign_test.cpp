@@ -1,0 +1,228 @@
+// Campaign parsing, timeline, thermal, and the simulator end to end.
+#include <cmath>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "host/io/log.h"
+#include "host/model/measure.h"
+#include "host/sim/campaign.h"
+#include "host/sim/earth.h"
+#include "host/sim/simulator.h"
+#include "host/sim/timeline.h"
+
+using namespace imuforge;
+using nlohmann::json;
+
+namespace {
+
+std::string ex(const char* f) { return std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/" + f; }
+
+model::SensorModel ideal_sensor() {
+  json j = {{"name", "ideal"},
+            {"accel", {{"lsb", 1e-7}, {"bits", 32}}},
+            {"gyro", {{"lsb", 1e-8}, {"bits", 32}}}};  // ±21 rad/s: above every table rate
+  return model::sensor_model_from_json(j);
+}
+
+std::vector<io::LogRow> run(const sim::Campaign& c, const model::SensorModel& m, std::uint64_t seed) {
+  std::vector<io::LogRow> out;
+  sim::SimOptions o;
+  o.seed = seed;
+  sim::simulate(c, m, o, [&](const io::LogRow& r) { out.push_back(r); });
+  return out;
+}
+
+std::string parse_error(const json& j) {
+  try {
+    sim::campaign_from_json(j);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+}  // namespace
+
+TEST(Campaign, ExamplesParseAndRoundTrip) {
+  for (const char* f : {"campaign-small.json", "campaign-eol.json"}) {
+    sim::Campaign c = sim::load_campaign(ex(f));
+    EXPECT_EQ(c.axes.size(), 3u);
+    sim::Campaign c2 = sim::campaign_from_json(sim::campaign_to_json(c));
+    EXPECT_EQ(c2.num_steps(), c.num_steps());
+    EXPECT_EQ(sim::campaign_to_json(c2), sim::campaign_to_json(c));
+  }
+  sim::Campaign eol = sim::load_campaign(ex("campaign-eol.json"));
+  EXPECT_GE(eol.phases.size(), 4u);
+  EXPECT_GE(eol.num_steps(), 4 * 24u);
+  sim::Timeline tl = sim::build_timeline(eol);
+  EXPECT_GT(tl.duration_s, 3600.0);  // realistic: hours, dominated by chamber soaks
+  EXPECT_NEAR(tl.duration_s, eol.nominal_duration_s(), 0.15 * tl.duration_s);
+}
+
+TEST(Campaign, ErrorsNameTheJsonPath) {
+  json c = json::parse(std::ifstream(ex("campaign-small.json")));
+  json b = c;
+  b["phases"][1]["steps"][0] = {{"type", "position"}, {"position_deg", {0, 0}}, {"dwell_s", 1}};
+  EXPECT_NE(parse_error(b).find("phases[1].steps[0].position_deg"), std::string::npos) << parse_error(b);
+  b = c;
+  b["phases"][0]["steps"][1] = {{"type", "rate"}, {"rate_dps", {0, 0, 5000}}, {"dwell_s", 1}};
+  EXPECT_NE(parse_error(b).find("exceeds its max_rate_dps"), std::string::npos);
+  b = c;
+  b["phases"][0]["steps"][0] = {{"use", "nope"}};
+  EXPECT_NE(parse_error(b).find("no sequence named 'nope'"), std::string::npos);
+  b = c;
+  b["phases"][0]["steps"][0] = {{"type", "soak"}, {"dwell_s", 0}};
+  EXPECT_NE(parse_error(b).find("dwell_s"), std::string::npos);
+  b = c;
+  b["phases"][0]["colour"] = 1;
+  EXPECT_NE(parse_error(b).find("unknown key 'colour'"), std::string::npos);
+  b = c;
+  b["sequences"]["loop"] = json::array({{{"use", "loop"}}});
+  b["phases"][0]["steps"][0] = {{"use", "loop"}};
+  EXPECT_NE(parse_error(b).find("nest"), std::string::npos);
+}
+
+TEST(Timeline, SegmentsAndMotionAreContinuous) {
+  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
+  sim::Timeline tl = sim::build_timeline(c);
+  std::size_t cur = 0;
+  double prev_ang[3] = {0, 0, 0};
+  const double dt = 1e-3;
+  for (double t = 0; t < tl.duration_s; t += dt) {
+    auto m = sim::sample_motion(tl, t, cur);
+    for (int a = 0; a < 3; ++a) {
+      // Angles continuous: step bounded by max rate · dt.
+      EXPECT_LE(std::fabs(m.table.angle_rad[a] - prev_ang[a]), c.axes[a].max_rate_dps * M_PI / 180 * dt * 1.0001 + 1e-12)
+          << "t " << t << " axis " << a;
+      EXPECT_LE(std::fabs(m.table.accel_rad_s2[a]), c.axes[a].max_accel_dps2 * M_PI / 180 * 1.0001);
+      prev_ang[a] = m.table.angle_rad[a];
+    }
+    if (m.entry->segment >= 0 && tl.segments[static_cast<std::size_t>(m.entry->segment)].kind == "position")
+      for (int a = 0; a < 3; ++a) EXPECT_EQ(m.table.rate_rad_s[a], 0.0);
+  }
+  // 2 plateaus × (soak + 6 faces + 3 × (1 position + 2 rates)) segments.
+  EXPECT_EQ(tl.segments.size(), 2u * (1 + 6 + 9));
+}
+
+TEST(Simulate, SameSeedBitIdenticalDifferentSeedDiffers) {
+  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
+  model::SensorModel m = model::load_sensor_model(ex("sensor-automotive.json"));
+  auto a = run(c, m, 5), b = run(c, m, 5), d = run(c, m, 6);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 10000u);
+  bool differ = false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(std::memcmp(a[i].raw, b[i].raw, sizeof a[i].raw), 0) << i;
+    ASSERT_EQ(a[i].t_s, b[i].t_s);
+    ASSERT_EQ(std::memcmp(a[i].f_ref, b[i].f_ref, sizeof a[i].f_ref), 0);
+    ASSERT_EQ(a[i].temp_C, b[i].temp_C);
+    differ = differ || std::memcmp(a[i].raw, d[i].raw, sizeof a[i].raw) != 0;
+  }
+  EXPECT_TRUE(differ);
+}
+
+// An ideal sensor (tiny LSB, no effects) on a perfect fixture reads exactly the reference; a sensor with
+// only deterministic effects reads measure(reference) to within half an LSB.
+TEST(Simulate, IdealAndDeterministicSensorsReadTheModel) {
+  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
+  c.simulation = json::object();  // no fixture errors, no encoder/temperature noise
+  model::SensorModel ideal = ideal_sensor();
+  const double g = sim::normal_gravity_mps2(sim::Site{c.latitude_deg, c.height_m});
+  std::size_t static_rows = 0;
+  for (const auto& r : run(c, ideal, 1)) {
+    ASSERT_TRUE(r.has_ref);
+    for (int j = 0; j < 3; ++j) {
+      EXPECT_NEAR(r.raw[j] * 1e-7, r.f_ref[j], 0.51e-7);
+      EXPECT_NEAR(r.raw[3 + j] * 1e-8, r.w_ref[j], 0.51e-8);
+    }
+    const bool still = r.table_rate_rad_s[0] == 0 && r.table_rate_rad_s[1] == 0 && r.table_rate_rad_s[2] == 0;
+    if (still && r.segment >= 0) {
+      ++static_rows;
+      EXPECT_NEAR(std::sqrt(r.f_ref[0] * r.f_ref[0] + r.f_ref[1] * r.f_ref[1] + r.f_ref[2] * r.f_ref[2]), g, 1e-10 * g);  // lever arm sees Ω_ie²·r ≈ 2e-10 m/s²
+    }
+  }
+  EXPECT_GT(static_rows, 1000u);
+
+  json sj = model::sensor_model_to_json(ideal);
+  sj["effects"] = {{"accel.bias", {{"x", 0.1}, {"z", -0.05}}},
+                   {"accel.scale", {{"y", 0.01}}},
+                   {"accel.size_effect", {{"x.rx", 0.01}}},
+                   {"gyro.g_sensitivity", {{"xz", 1e-4}}},
+                   {"gyro.bias_temp", {{"z.t1", 1e-5}}},
+                   {"gyro.misalign", {{"yx", 2e-3}}}};
+  model::SensorModel det = model::sensor_model_from_json(sj);
+  const auto ca = model::compile(det, model::Sensor::kAccel), cg = model::compile(det, model::Sensor::kGyro);
+  model::HysteresisTracker h;
+  std::size_t i = 0;
+  for (const auto& r : run(c, det, 1)) {
+    model::MeasureInput in;
+    in.f = Eigen::Vector3d(r.f_ref[0], r.f_ref[1], r.f_ref[2]);
+    in.w = Eigen::Vector3d(r.w_ref[0], r.w_ref[1], r.w_ref[2]);
+    in.T_C = r.temp_C;
+    const Eigen::Vector3d ya = model::measure(ca, in), yg = model::measure(cg, in);
+    // ω̇ is not logged: skip rate transitions (size effect's ω̇×r term) for the accelerometer.
+    if (r.segment >= 0)
+      for (int j = 0; j < 3; ++j) EXPECT_NEAR(r.raw[j] * 1e-7, ya[j], 0.51e-7) << "row " << i;
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(r.raw[3 + j] * 1e-8, yg[j], 0.51e-8) << "row " << i;
+    ++i;
+  }
+}
+
+TEST(Simulate, ThermalLagsAndSelfHeats) {
+  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
+  c.simulation = json::object();
+  model::SensorModel m = ideal_sensor();
+  m.thermal.die_tau_s = 30;
+  m.thermal.self_heating_C = 2.0;
+  m.thermal.self_heating_tau_s = 10;
+  auto rows = run(c, m, 1);
+  // Plateau 1 at 25 °C: after a while the die sits 2 °C above the air.
+  const auto& r0 = rows[static_cast<std::size_t>(5 * c.sample_rate_hz)];
+  const auto& r1 = rows[static_cast<std::size_t>(80 * c.sample_rate_hz)];
+  EXPECT_NEAR(r1.chamber_C, 25.0, 1e-9);
+  // die − air → self_heating·(1 − e^(−t/τ_sh)) through the die lag: small early, ≈ 2 °C later.
+  EXPECT_LT(r0.temp_C - r0.chamber_C, 0.5);
+  // Closed form for a first-order lag (τd = 30 s) driven by 2·(1 − e^(−t/τs)), τs = 10 s.
+  const double t1 = 80, expect = 2.0 * (1 - (30 * std::exp(-t1 / 30) - 10 * std::exp(-t1 / 10)) / 20);
+  EXPECT_NEAR(r1.temp_C - r1.chamber_C, expect, 2e-3);
+  // The air never slews faster than the chamber's limit, the die lags the air while heating.
+  double max_rate = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i)
+    max_rate = std::max(max_rate, (rows[i].chamber_C - rows[i - 1].chamber_C) * c.sample_rate_hz);
+  EXPECT_LE(max_rate, c.ramp_limit_C_per_min / 60.0 * 1.0001);
+  EXPECT_GT(max_rate, 0.05);
+  EXPECT_NEAR(rows.back().chamber_C, 35.0, 0.2);  // first-order tail (τ = 20 s)
+}
+
+TEST(Simulate, WhiteNoiseHasTheSpecifiedDensity) {
+  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
+  c.simulation = json::object();
+  json sj = model::sensor_model_to_json(ideal_sensor());
+  sj["effects"] = {{"gyro.white_noise", {{"x", 1e-4}, {"y", 2e-4}, {"z", 3e-4}}}};
+  model::SensorModel m = model::sensor_model_from_json(sj);
+  auto rows = run(c, m, 9);
+  for (int j = 0; j < 3; ++j) {
+    double s = 0, s2 = 0;
+    for (const auto& r : rows) {
+      double e = r.raw[3 + j] * 1e-8 - r.w_ref[j];
+      s += e, s2 += e * e;
+    }
+    const double n = static_cast<double>(rows.size());
+    const double sd = std::sqrt(s2 / n - (s / n) * (s / n));
+    const double expect = (j + 1) * 1e-4 * std::sqrt(c.sample_rate_hz);
+    EXPECT_NEAR(sd, expect, 0.03 * expect);
+  }
+}
+
+TEST(Simulate, TruthHoldsEveryParameterAndTheRealisedTurnOnBias) {
+  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
+  model::SensorModel m = model::load_sensor_model(ex("sensor-consumer.json"));
+  sim::SimOptions o;
+  o.seed = 3;
+  auto sum = sim::simulate(c, m, o, [](const io::LogRow&) {});
+  EXPECT_EQ(sum.truth["parameters"].size(), static_cast<std::size_t>(model::num_params()));
+  EXPECT_DOUBLE_EQ(sum.truth["parameters"]["accel.bias.x"].get<double>(), m.params.get("accel.bias.x"));
+  EXPECT_TRUE(sum.truth["realised"].contains("gyro.turn_on_bias.z"));
+  EXPECT_EQ(sum.truth["segments"].size(), static_cast<std::size_t>(sum.segments));
+}

@@ -1,0 +1,199 @@
+// Effect catalog, sensor/model JSON, and measure() == nominal + regressors·θ.
+#include <cmath>
+#include <random>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "host/model/catalog.h"
+#include "host/model/measure.h"
+#include "host/model/sensor_model.h"
+
+using namespace imuforge::model;
+using nlohmann::json;
+
+TEST(Catalog, NamesAreUniqueAndRoundTrip) {
+  std::set<std::string> names;
+  for (const auto& p : params()) {
+    EXPECT_TRUE(names.insert(p.name).second) << p.name;
+    EXPECT_EQ(find_param(p.name), p.id);
+  }
+  EXPECT_EQ(find_param("accel.bias.x"), effect_params(Sensor::kAccel, Effect::kBias)[0]);
+  EXPECT_EQ(find_param("accel.g_sensitivity.xx"), -1);  // gyro only
+  EXPECT_GE(find_param("gyro.g2_sensitivity.z.zx"), 0);
+  EXPECT_GE(find_param("accel.size_effect.y.rz"), 0);
+  EXPECT_EQ(effect_params(Sensor::kGyro, Effect::kMisalignTemp).size(), 18u);
+  const auto& p = param_info(find_param("gyro.misalign_temp.zx.t2"));
+  EXPECT_EQ(p.j, 2);
+  EXPECT_EQ(p.k, 0);
+  EXPECT_EQ(p.power, 2);
+  try {
+    param_id_or_throw("gyro.misalign.xx");
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("valid components"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(param_id_or_throw("accel.g_sensitivity.xx"), std::invalid_argument);
+  EXPECT_EQ(effects().size(), static_cast<std::size_t>(kNumEffects));
+  for (int i = 0; i < kNumEffects; ++i) EXPECT_EQ(static_cast<int>(effects()[static_cast<std::size_t>(i)].effect), i);
+}
+
+// The central consistency test: the simulator's measure() and the solver's regressors agree exactly.
+TEST(Measure, EqualsNominalPlusRegressorsTimesTheta) {
+  std::mt19937_64 gen(7);
+  std::normal_distribution<double> nd;
+  for (int trial = 0; trial < 50; ++trial) {
+    ParamSet th;
+    for (const auto& p : params())
+      if (p.deterministic) th[p.id] = 1e-3 * nd(gen);
+    MeasureInput in;
+    in.f = Eigen::Vector3d(nd(gen), nd(gen), nd(gen)) * 5;
+    in.w = Eigen::Vector3d(nd(gen), nd(gen), nd(gen));
+    in.wdot = Eigen::Vector3d(nd(gen), nd(gen), nd(gen));
+    in.fdot = Eigen::Vector3d(nd(gen), nd(gen), nd(gen));
+    in.T_C = 25 + 20 * nd(gen);
+    in.Tdot_C_s = 0.05 * nd(gen);
+    in.d = trial % 3 - 1;
+    in.t_s = 100 * std::fabs(nd(gen));
+    for (Sensor s : {Sensor::kAccel, Sensor::kGyro}) {
+      std::vector<ParamId> ids;
+      for (const auto& p : params())
+        if (p.deterministic) ids.push_back(p.id);  // both sensors: the other's columns must be zero
+      Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, ids.size());
+      regressors(s, ids, in, 21.5, J);
+      Eigen::VectorXd theta(ids.size());
+      for (std::size_t i = 0; i < ids.size(); ++i) theta[static_cast<Eigen::Index>(i)] = th[ids[i]];
+      const Eigen::Vector3d y = measure(compile(th, s, 21.5), in);
+      const Eigen::Vector3d y2 = nominal(s, in) + J * theta;
+      EXPECT_LT((y - y2).norm(), 1e-12 * (1 + y.norm())) << sensor_name(s) << " trial " << trial;
+      // And without timing: the timing columns vanish.
+      MeasureOptions no_t{false};
+      regressors(s, ids, in, 21.5, J, no_t);
+      EXPECT_LT((measure(compile(th, s, 21.5), in, no_t) - nominal(s, in) - J * theta).norm(), 1e-12 * (1 + y.norm()));
+    }
+  }
+}
+
+TEST(Measure, IndividualTermsMatchTheDocumentedEquation) {
+  ParamSet th;
+  th.set("gyro.scale.x", 1e-3);
+  th.set("gyro.misalign.xy", 2e-3);
+  th.set("gyro.g_sensitivity.xz", 1e-4);
+  th.set("gyro.bias_temp.x.t2", 1e-6);
+  th.set("gyro.scale_asymmetry.x", 5e-4);
+  MeasureInput in;
+  in.w = Eigen::Vector3d(-0.5, 0.2, 0.1);
+  in.f = Eigen::Vector3d(0, 0, -9.8);
+  in.T_C = 35;
+  const double expect = -0.5 * (1 + 1e-3) + 2e-3 * 0.2 + 1e-4 * -9.8 + 1e-6 * 100 + 5e-4 * -0.5;
+  EXPECT_NEAR(measure(compile(th, Sensor::kGyro, 25), in).x(), expect, 1e-15);
+  // Size effect: axis x at lever arm r_x = (0, 0.1, 0) rotating about z at 2 rad/s reads [ω×(ω×r)]_x = 0.
+  ParamSet a;
+  a.set("accel.size_effect.y.ry", 0.1);
+  in.w = Eigen::Vector3d(0, 0, 2);
+  in.wdot.setZero();
+  in.f.setZero();
+  EXPECT_NEAR(measure(compile(a, Sensor::kAccel, 25), in).y(), -0.4, 1e-15);  // −ω² r
+}
+
+TEST(Thermal, HysteresisDirection) {
+  HysteresisTracker h(0.5);
+  EXPECT_EQ(h.update(25.0), 0);
+  EXPECT_EQ(h.update(25.3), 0);
+  EXPECT_EQ(h.update(25.6), 1);   // heated by > 0.5
+  EXPECT_EQ(h.update(40.0), 1);
+  EXPECT_EQ(h.update(39.7), 1);   // small dip is not a turn
+  EXPECT_EQ(h.update(39.4), -1);  // 0.6 below the maximum
+  EXPECT_EQ(h.update(std::nan("")), -1);
+  EXPECT_EQ(h.update(10.0), -1);
+  EXPECT_EQ(h.update(10.6), 1);
+}
+
+TEST(Thermal, CentredTemperatureRate) {
+  std::vector<double> t, T;
+  for (int i = 0; i <= 1000; ++i) {
+    t.push_back(i * 0.1);
+    T.push_back(20 + 0.05 * i * 0.1);
+  }
+  auto r = temp_rate_centered(t, T, 10.0);
+  for (double v : r) EXPECT_NEAR(v, 0.05, 1e-12);
+}
+
+TEST(SensorModel, ExamplesLoadAndCarryEffectsBeyondBasic) {
+  for (const char* f : {"sensor-consumer.json", "sensor-automotive.json", "sensor-tactical.json"}) {
+    SensorModel m = load_sensor_model(std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/" + f);
+    int beyond = 0;
+    for (int s = 0; s < kNumSensors; ++s)
+      for (int e = static_cast<int>(Effect::kBiasTemp); e < kNumEffects; ++e) beyond += m.enabled[s][e];
+    EXPECT_GE(beyond, 8) << f;
+    // Round trip through JSON.
+    SensorModel m2 = sensor_model_from_json(sensor_model_to_json(m));
+    EXPECT_EQ(m2.effective_params().values(), m.effective_params().values()) << f;
+  }
+}
+
+TEST(SensorModel, ErrorsNameTheProblem) {
+  json base = {{"accel", {{"lsb", 1e-3}, {"bits", 16}}}, {"gyro", {{"lsb", 1e-4}, {"bits", 16}}}};
+  auto msg = [&](json j) {
+    try {
+      sensor_model_from_json(j);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  json j = base;
+  j["effects"]["accel.bais"] = {{"x", 1}};
+  EXPECT_NE(msg(j).find("unknown effect 'bais'"), std::string::npos) << msg(j);
+  j = base;
+  j["effects"]["accel.g_sensitivity"] = {{"xx", 1}};
+  EXPECT_NE(msg(j).find("does not apply to the accel"), std::string::npos) << msg(j);
+  j = base;
+  j["effects"]["gyro.bias"] = {{"w", 1}};
+  EXPECT_NE(msg(j).find("valid components"), std::string::npos) << msg(j);
+  j = base;
+  j["effects"]["gyro.bias"] = {{"x", "big"}};
+  EXPECT_NE(msg(j).find("gyro.bias.x"), std::string::npos) << msg(j);
+  j = base;
+  j["accel"]["lsb"] = 0;
+  EXPECT_NE(msg(j).find("lsb"), std::string::npos) << msg(j);
+  j = base;
+  j["effects"]["gyro.white_noise"] = {{"x", -1}};
+  EXPECT_NE(msg(j).find(">= 0"), std::string::npos) << msg(j);
+  j = base;
+  j.erase("gyro");
+  EXPECT_NE(msg(j).find("gyro"), std::string::npos);
+  j = base;
+  j["effects"]["bias"] = {{"x", 0.5}, {"enabled", false}};
+  SensorModel m = sensor_model_from_json(j);  // plain effect name = both sensors
+  EXPECT_EQ(m.params.get("gyro.bias.x"), 0.5);
+  EXPECT_EQ(m.effective_params().get("gyro.bias.x"), 0.0);
+}
+
+TEST(ModelSpec, ExpandsOrdersAndOptions) {
+  json j = {{"name", "t"},
+            {"effects", {{"accel.bias", json::object()},
+                         {"accel.bias_temp", {{"order", 2}}},
+                         {"gyro.misalign", {{"components", {"xy", "zx"}}}},
+                         {"gyro.bias", {{"per_plateau", true}}},
+                         {"gyro.white_noise", json::object()}}},
+            {"solver", {{"iterations", 5}}}};
+  ModelSpec m = model_spec_from_json(j);
+  auto ids = m.parameters();
+  std::vector<std::string> names;
+  for (auto id : ids) names.push_back(param_info(id).name);
+  // nlohmann::json objects iterate in key order.
+  std::vector<std::string> expect = {"accel.bias.x", "accel.bias.y", "accel.bias.z",
+                                     "accel.bias_temp.x.t1", "accel.bias_temp.x.t2", "accel.bias_temp.y.t1",
+                                     "accel.bias_temp.y.t2", "accel.bias_temp.z.t1", "accel.bias_temp.z.t2",
+                                     "gyro.bias.x", "gyro.bias.y", "gyro.bias.z", "gyro.misalign.xy",
+                                     "gyro.misalign.zx"};
+  EXPECT_EQ(names, expect);
+  EXPECT_TRUE(m.extra.contains("solver"));
+  EXPECT_THROW(model_spec_from_json(json{{"effects", {{"accel.bias", {{"order", 2}}}}}}), std::invalid_argument);
+  EXPECT_THROW(model_spec_from_json(json{{"effects", {{"accel.bias_temp", {{"order", 4}}}}}}), std::invalid_argument);
+  for (const char* f : {"model-basic.json", "model-thermal.json"}) {
+    ModelSpec s = load_model_spec(std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/" + f);
+    EXPECT_GE(s.parameters().size(), 24u) << f;
+  }
+}

@@ -1,0 +1,221 @@
+// The host side of the SocketCAN VM test (tests/vm/run-vm-test.sh). Runs INSIDE the VM, statically
+// linked, against imuforge-vimu on vcan0, through the kernel's CAN_ISOTP (commands) and CAN_RAW (stream).
+// Prints one line per check ("VMTEST <name> PASS|FAIL ...") and benchmark lines ("BENCH ..."), parsed
+// by the host-side script. Exit code 0 iff every check passed.
+//   can_vm_driver run --bus socketcan:vcan0 --node 1 --serial 777 --stream-s 60 --bench-s 10
+//   can_vm_driver candump <file> --node 1 --serial 777     (decode candump -L output)
+#include <chrono>
+#include <cinttypes>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "firmware/table/table.h"
+#include "host/can/client.h"
+#include "host/vimu/virtual_imu.h"
+
+using namespace imuforge;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+int g_failed = 0;
+void report(const char* name, bool ok, const std::string& detail) {
+  std::printf("VMTEST %s %s %s\n", name, ok ? "PASS" : "FAIL", detail.c_str());
+  std::fflush(stdout);
+  if (!ok) ++g_failed;
+}
+
+std::string arg(int argc, char** argv, const char* name, const char* def) {
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (std::strcmp(argv[i], name) == 0) return argv[i + 1];
+  }
+  return def;
+}
+
+std::vector<std::uint8_t> make_table(std::uint64_t serial, std::uint32_t seq, int n_bp) {
+  fw::Table t;
+  fw::table_init_identity(&t, 0.0024f, 0.0005f, 16, 16);
+  t.device_serial = serial;
+  t.table_sequence = seq;
+  t.model_flags = (n_bp > 1 ? fw::kModelTemperature : 0u) | fw::kModelAccelBias;
+  t.n_breakpoints = static_cast<std::uint8_t>(n_bp);
+  for (int i = 0; i < n_bp; ++i) {
+    t.breakpoints_degC[i] = -40.0f + 8.0f * static_cast<float>(i);
+    t.coeffs[i] = t.coeffs[0];
+    t.coeffs[i].accel.b[0] = 0.001f * static_cast<float>(i);
+  }
+  std::vector<std::uint8_t> b(fw::kTableMaxSize);
+  const int n = fw::table_serialize(&t, b.data(), b.size());
+  b.resize(n > 0 ? static_cast<std::size_t>(n) : 0u);
+  return b;
+}
+
+void stream_run(can::Client& c, std::uint16_t rate, double seconds, bool check) {
+  const auto t0 = Clock::now();
+  c.start_stream(rate, proto::kChAll, nullptr);
+  std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int>(seconds * 1000)));
+  const std::uint32_t node_sent_total = c.stop_stream(300);
+  const double el = std::chrono::duration<double>(Clock::now() - t0).count();
+  const can::StreamCounters k = c.stream_counters();
+  const double loss = k.frames == 0 ? 1.0 : static_cast<double>(k.frames_lost) / static_cast<double>(k.frames + k.frames_lost);
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "rate_hz=%u seconds=%.1f samples=%" PRIu64 " frames=%" PRIu64 " lost=%" PRIu64 " incomplete=%" PRIu64
+                " duplicated=%" PRIu64 " reordered=%" PRIu64 " frames_lost=%" PRIu64
+                " throughput_samples_s=%.1f frame_loss=%.6f node_samples_sent_total=%u",
+                rate, seconds, k.received, k.frames, k.lost, k.incomplete, k.duplicated, k.reordered, k.frames_lost,
+                static_cast<double>(k.received) / el, loss, node_sent_total);
+  std::printf("BENCH stream %s\n", buf);
+  if (check) {
+    const bool ok = k.lost == 0 && k.incomplete == 0 && k.frames_lost == 0 && k.duplicated == 0 &&
+                    k.received >= static_cast<std::uint64_t>(0.95 * rate * seconds);
+    report(rate == 1000 ? "stream1000" : "stream", ok, buf);
+  }
+}
+
+int run(int argc, char** argv) {
+  const std::string bus = arg(argc, argv, "--bus", "socketcan:vcan0");
+  const auto node = static_cast<std::uint8_t>(std::atoi(arg(argc, argv, "--node", "1").c_str()));
+  const std::uint64_t serial = std::strtoull(arg(argc, argv, "--serial", "777").c_str(), nullptr, 10);
+  const double stream_s = std::atof(arg(argc, argv, "--stream-s", "60").c_str());
+  const double bench_s = std::atof(arg(argc, argv, "--bench-s", "10").c_str());
+  std::unique_ptr<can::Client> c;
+  for (int i = 0; i < 50 && !c; ++i) {  // vimu may still be starting
+    try {
+      auto cc = can::Client::connect(bus, node);
+      cc->identify();
+      c = std::move(cc);
+    } catch (const std::exception&) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    }
+  }
+  if (!c) {
+    report("identify", false, "no answer from node on " + bus);
+    return 1;
+  }
+  try {
+    const can::Identity id = c->identify();
+    report("identify", id.serial == serial && id.node_id == node,
+           "serial=" + std::to_string(id.serial) + " fw=" + id.fw_version + " table_present=" +
+               std::to_string(id.table_present));
+
+    // Table write, commit and read-back over kernel ISO-TP (largest table: 16 breakpoints).
+    const auto key = vimu::dev_key_for_serial(serial);
+    const auto table = make_table(serial, id.table_seq + 1, 16);
+    const auto t0 = Clock::now();
+    c->flash_table(table, id.table_seq + 1, key, serial);
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    std::uint32_t seq = 0;
+    const auto back = c->read_table(&seq);
+    const std::size_t req = proto::kWriteHeaderBytes + table.size();
+    const std::size_t cfs = (req - 6 + 6) / 7;
+    report("table", back == table && seq == id.table_seq + 1,
+           "bytes=" + std::to_string(table.size()) + " seq=" + std::to_string(seq));
+    std::printf("BENCH flash table_bytes=%zu request_bytes=%zu write_frames=%zu (1 FF + %zu CF + %zu FC) "
+                "flash_ms=%.1f (write+commit+identify+read-back)\n",
+                table.size(), req, 1 + cfs + (cfs + 7) / 8, cfs, (cfs + 7) / 8, ms);
+    // A wrong tag over kernel ISO-TP: refused, table stays.
+    auto bad = key;
+    bad[3] ^= 1u;
+    bool refused = false;
+    std::string why = "wrong tag accepted";
+    try {
+      c->write_table(make_table(serial, seq + 1, 1), seq + 1, bad, serial);
+    } catch (const can::Error& e) {
+      refused = e.code() == proto::kStAuthFailed;
+      why = e.what();
+    }
+    report("auth", refused && c->identify().table_seq == seq, why);
+
+    stream_run(*c, 1000, stream_s, true);
+    if (bench_s > 0) stream_run(*c, 2000, bench_s, false);
+  } catch (const std::exception& e) {
+    report("exception", false, e.what());
+  }
+  return g_failed == 0 ? 0 : 1;
+}
+
+// Decodes candump -L lines "(ts) vcan0 ID#HEX" against the documented identifiers.
+int check_candump(const std::string& path, std::uint8_t node) {
+  std::ifstream f(path);
+  if (!f) {
+    report("candump", false, "cannot open " + path);
+    return 1;
+  }
+  std::map<std::string, std::uint64_t> n;
+  std::uint64_t seq_gaps = 0, seq_reorders = 0;
+  long max_seq[3] = {-1, -1, -1};  // extended (no wrap expected in one VM run, handled anyway)
+  std::string line;
+  while (std::getline(f, line)) {
+    std::istringstream ls(line);
+    std::string ts, ifc, fr;
+    if (!(ls >> ts >> ifc >> fr)) continue;
+    const auto hash = fr.find('#');
+    if (hash == std::string::npos) {
+      ++n["malformed"];
+      continue;
+    }
+    const std::string ids = fr.substr(0, hash), hex = fr.substr(hash + 1);
+    const bool ext = ids.size() == 8;
+    const auto id = static_cast<std::uint32_t>(std::strtoul(ids.c_str(), nullptr, 16));
+    std::vector<std::uint8_t> d;
+    for (std::size_t i = 0; i + 1 < hex.size(); i += 2) d.push_back(static_cast<std::uint8_t>(std::strtoul(hex.substr(i, 2).c_str(), nullptr, 16)));
+    bool known = false;
+    for (std::uint8_t p = 0; p < proto::kPartCount; ++p) {
+      if (id == proto::stream_id(node, p, ext)) {
+        known = true;
+        if (d.size() != 8) {
+          ++n["bad_stream_len"];
+          break;
+        }
+        ++n[p == 0 ? "stream_accel" : p == 1 ? "stream_gyro" : "stream_temp"];
+        const long s16 = d[0] | (d[1] << 8);
+        long s = s16;
+        if (max_seq[p] >= 0) s = max_seq[p] + static_cast<std::int16_t>(static_cast<std::uint16_t>(s16 - max_seq[p]));
+        if (max_seq[p] >= 0 && s > max_seq[p] + 1) ++seq_gaps;  // a sample the node never sent
+        if (s < max_seq[p]) ++seq_reorders;                      // delivered late (per-CPU backlog)
+        if (s > max_seq[p]) max_seq[p] = s;
+      }
+    }
+    if (id == proto::request_id(node, ext) || id == proto::response_id(node, ext)) {
+      known = true;
+      const char* dir = id == proto::request_id(node, ext) ? "req" : "resp";
+      const int pci = d.empty() ? 15 : d[0] >> 4;
+      static const char* names[] = {"SF", "FF", "CF", "FC"};
+      if (pci > 3) {
+        ++n["bad_pci"];
+      } else {
+        ++n[std::string(dir) + "_" + names[pci]];
+      }
+    }
+    if (!known) ++n["unknown_id"];
+  }
+  std::string detail;
+  for (const auto& [k, v] : n) detail += k + "=" + std::to_string(v) + " ";
+  // The node's counter runs on across stop/start, so any forward jump is a sample it did not send.
+  detail += "seq_gaps=" + std::to_string(seq_gaps) + " seq_reorders=" + std::to_string(seq_reorders);
+  const bool ok = n["unknown_id"] == 0 && n["malformed"] == 0 && n["bad_pci"] == 0 && n["bad_stream_len"] == 0 &&
+                  n["stream_accel"] > 0 && n["stream_accel"] == n["stream_gyro"] &&
+                  n["stream_gyro"] == n["stream_temp"] && n["req_FF"] >= 1 && n["req_CF"] >= 300 &&
+                  n["resp_FC"] >= 1 && seq_gaps == 0;
+  report("candump", ok, detail);
+  return ok ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc >= 2 && std::strcmp(argv[1], "run") == 0) return run(argc, argv);
+  if (argc >= 3 && std::strcmp(argv[1], "candump") == 0) {
+    return check_candump(argv[2], static_cast<std::uint8_t>(std::atoi(arg(argc, argv, "--node", "1").c_str())));
+  }
+  std::fprintf(stderr, "usage: can_vm_driver run [--bus B] [--node N] [--serial S] [--stream-s S] [--bench-s S]\n"
+                       "       can_vm_driver candump FILE [--node N]\n");
+  return 2;
+}
