@@ -78,9 +78,19 @@ class VirtualPort final : public LinuxCanPort {
       *err = sys_error("virtual bus: socket");
       return false;
     }
-    int rcv = 4 * 1024 * 1024;
-    if (::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcv, sizeof rcv) != 0) {
+    // Loopback datagrams stay charged to the SENDER's buffer until every receiver has read them, so
+    // a reader lagging ~50 ms behind a 3 kHz frame stream would make the default 208 KiB send buffer
+    // refuse frames. Ask for 4 MiB each way (FORCE needs CAP_NET_ADMIN; the plain call is capped by
+    // net.core.[rw]mem_max).
+    int buf = 4 * 1024 * 1024;
+    if (::setsockopt(fd_, SOL_SOCKET, SO_RCVBUFFORCE, &buf, sizeof buf) != 0 &&
+        ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &buf, sizeof buf) != 0) {
       *err = sys_error("virtual bus: SO_RCVBUF");
+      return false;
+    }
+    if (::setsockopt(fd_, SOL_SOCKET, SO_SNDBUFFORCE, &buf, sizeof buf) != 0 &&
+        ::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &buf, sizeof buf) != 0) {
+      *err = sys_error("virtual bus: SO_SNDBUF");
       return false;
     }
     sockaddr_in a{};
@@ -119,10 +129,16 @@ class VirtualPort final : public LinuxCanPort {
     std::uint8_t buf[16];
     encode(frame, buf);
     for (const sockaddr_in& p : peers_) {
-      const ssize_t n = ::sendto(fd_, buf, sizeof buf, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&p), sizeof p);
+      ssize_t n = -1;
+      for (int attempt = 0; attempt < 3; ++attempt) {
+        n = ::sendto(fd_, buf, sizeof buf, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&p), sizeof p);
+        if (n >= 0 || (errno != EAGAIN && errno != ENOBUFS)) break;
+        pollfd w{fd_, POLLOUT, 0};  // send buffer full: give the readers up to 2 ms, as a TX mailbox would
+        (void)::poll(&w, 1, 2);
+      }
       if (n == static_cast<ssize_t>(sizeof buf)) continue;
       if (n < 0 && (errno == EAGAIN || errno == ENOBUFS || errno == ECONNREFUSED)) {
-        ++tx_dropped_;  // like a receiving controller's overrun: the sender does not see it
+        ++tx_dropped_;  // a receiver that does not keep up loses frames, as on a real bus
         continue;
       }
       error_ = sys_error("virtual bus: sendto");

@@ -420,11 +420,12 @@ struct HeldOut {
   double floor() const { return W > 0 ? std::sqrt(expected / W) : 0.0; }
 };
 
-HeldOut heldout_axis(const AxisData& ad, const std::vector<int>& sel, int folds) {
+// The fit uses `fit_ad` (blocks); the withheld data are scored on `ad` (blocks, or whole segments for the gap).
+HeldOut heldout_axis(const AxisData& fit_ad, const AxisData& ad, const std::vector<int>& sel, int folds) {
   HeldOut h;
   for (int k = 0; k < folds; ++k) {
     if (ad.nbk[static_cast<std::size_t>(k)] == 0) continue;
-    Fit f = fit_axis(ad, sel, k);
+    Fit f = fit_axis(fit_ad, sel, k);
     const int p = static_cast<int>(f.kept.size());
     const auto& Hk = ad.Hk[static_cast<std::size_t>(k)];
     const auto& gk = ad.gk[static_cast<std::size_t>(k)];
@@ -662,6 +663,56 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     }
   }
 
+  // ---- The same design aggregated per segment (unit): the gap is scored on withheld whole segments, whose
+  // means carry every steady effect with far fewer noise degrees of freedom than blocks.
+  std::array<AxisData, kNumAxes> axu;
+  {
+    std::map<int, std::vector<int>> unit_blocks;
+    for (int b = 0; b < B; ++b) unit_blocks[blocks[static_cast<std::size_t>(b)].unit].push_back(b);
+    const int U = static_cast<int>(unit_blocks.size());
+    for (int a = 0; a < kNumAxes; ++a) {
+      const AxisData& ad = ax[static_cast<std::size_t>(a)];
+      AxisData& au = axu[static_cast<std::size_t>(a)];
+      au.axis = a;
+      au.sensor = ad.sensor;
+      au.cols = ad.cols;
+      const int P = static_cast<int>(ad.cols.size());
+      au.X = Eigen::MatrixXd::Zero(U, P);
+      au.z = Eigen::VectorXd::Zero(U);
+      au.v = Eigen::VectorXd::Zero(U);
+      au.Hk.assign(static_cast<std::size_t>(folds), Eigen::MatrixXd::Zero(P, P));
+      au.gk.assign(static_cast<std::size_t>(folds), Eigen::VectorXd::Zero(P));
+      au.qk.assign(static_cast<std::size_t>(folds), 0.0);
+      au.Wk.assign(static_cast<std::size_t>(folds), 0.0);
+      au.nbk.assign(static_cast<std::size_t>(folds), 0);
+      int u = 0;
+      for (const auto& [unit_id, bl] : unit_blocks) {
+        double n = 0;
+        for (int b : bl) {
+          const double nb = static_cast<double>(blocks[static_cast<std::size_t>(b)].n);
+          au.X.row(u) += nb * ad.X.row(b);
+          au.z[u] += nb * ad.z[b];
+          n += nb;
+        }
+        au.X.row(u) /= n;
+        au.z[u] /= n;
+        au.v[u] = std::max(R.noise[static_cast<std::size_t>(a)].terms.avar(n / p0.fs), 1e-300);
+        double vmin = 0;  // never below the independent-block value (guards a degenerate noise fit)
+        for (int b : bl) vmin += std::pow(static_cast<double>(blocks[static_cast<std::size_t>(b)].n) / n, 2) * ad.v[b];
+        au.v[u] = std::max(au.v[u], vmin);
+        const auto k = static_cast<std::size_t>(blocks[static_cast<std::size_t>(bl.front())].fold);
+        const double w = 1.0 / au.v[u];
+        Eigen::VectorXd x = au.X.row(u).transpose();
+        au.Hk[k] += w * x * x.transpose();
+        au.gk[k] += w * au.z[u] * x;
+        au.qk[k] += w * au.z[u] * au.z[u];
+        au.Wk[k] += w;
+        au.nbk[k] += 1;
+        ++u;
+      }
+    }
+  }
+
   // ---- The model as a set of parameter ids per sensor.
   std::set<ParamId> model_ids(base.params.begin(), base.params.end());
   std::set<std::pair<int, int>> in_model;  // (sensor, effect)
@@ -692,7 +743,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     Gap g;
     for (int a = 0; a < kNumAxes; ++a) {
       const auto& ad = ax[static_cast<std::size_t>(a)];
-      HeldOut h = heldout_axis(ad, cols_for(ad, ids_model), folds);
+      HeldOut h = heldout_axis(ad, axu[static_cast<std::size_t>(a)], cols_for(ad, ids_model), folds);
       g.gap[static_cast<std::size_t>(a)] = h.gap();
       g.rms[static_cast<std::size_t>(a)] = h.rms();
       g.floor[static_cast<std::size_t>(a)] = h.floor();
@@ -711,7 +762,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     for (int a = 0; a < kNumAxes; ++a) {
       const auto& ad = ax[static_cast<std::size_t>(a)];
       fcur[static_cast<std::size_t>(a)] = fit_axis(ad, cols_for(ad, cur), -1);
-      hcur[static_cast<std::size_t>(a)] = heldout_axis(ad, cols_for(ad, cur), folds);
+      hcur[static_cast<std::size_t>(a)] = heldout_axis(ad, axu[static_cast<std::size_t>(a)], cols_for(ad, cur), folds);
     }
     for (auto [s, e] : candidates) {
       if (cur_effects.count({static_cast<int>(s), static_cast<int>(e)})) continue;
@@ -738,7 +789,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
         rss_aug += fa.rss;
         n_obs += ad.nb;
         p_aug += static_cast<int>(fa.kept.size());
-        HeldOut ha = heldout_axis(ad, sel, folds);
+        HeldOut ha = heldout_axis(ad, axu[static_cast<std::size_t>(a)], sel, folds);
         const HeldOut& hc = hcur[static_cast<std::size_t>(a)];
         ho_gain += (hc.chi2 - hc.expected) - (ha.chi2 - ha.expected);
         gap_cur += pos(hc.gap());

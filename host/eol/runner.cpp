@@ -738,7 +738,6 @@ RunResult Runner::run() {
         auto v = finish["verified_" + key]["after"].get<std::vector<double>>();
         for (int k = 0; k < 6; ++k) mean_after[static_cast<std::size_t>(k)] = v[static_cast<std::size_t>(k)];
       } else {
-        if (is_rate) peer("rate table command", [&] { bench_.command_position(vp.position_deg); return 0; }), wait_table("verification start");
         std::vector<io::LogRow> rows;
         std::vector<ImuSample> raws;
         collect(si, key, false, &rows, &raws, 0.0);

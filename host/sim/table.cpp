@@ -61,41 +61,89 @@ ImuKinematics table_kinematics(const TableGeometry& geom, const TableState& st, 
   return table_kinematics(PreparedTable(geom), st, g_ned, wie_ned);
 }
 
+namespace {
+// Plain 3×3 helpers: this function runs several times per sample, and Eigen's generic assignment
+// loops for fixed 3×3 products were not inlined at -O2 (60 % of the simulator's time).
+struct M3 {
+  double m[3][3];
+};
+struct V3 {
+  double v[3];
+};
+inline V3 mul(const M3& A, const V3& x) {
+  V3 y;
+  for (int i = 0; i < 3; ++i) y.v[i] = A.m[i][0] * x.v[0] + A.m[i][1] * x.v[1] + A.m[i][2] * x.v[2];
+  return y;
+}
+inline M3 mul(const M3& A, const M3& B) {
+  M3 C;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) C.m[i][j] = A.m[i][0] * B.m[0][j] + A.m[i][1] * B.m[1][j] + A.m[i][2] * B.m[2][j];
+  return C;
+}
+inline V3 cross(const V3& a, const V3& b) {
+  return V3{{a.v[1] * b.v[2] - a.v[2] * b.v[1], a.v[2] * b.v[0] - a.v[0] * b.v[2], a.v[0] * b.v[1] - a.v[1] * b.v[0]}};
+}
+inline V3 from(const Eigen::Vector3d& e) { return V3{{e.x(), e.y(), e.z()}}; }
+inline M3 from(const Eigen::Matrix3d& e) {
+  M3 r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r.m[i][j] = e(i, j);
+  return r;
+}
+inline Eigen::Vector3d to(const V3& v) { return Eigen::Vector3d(v.v[0], v.v[1], v.v[2]); }
+}  // namespace
+
 ImuKinematics table_kinematics(const PreparedTable& P, const TableState& st, const Eigen::Vector3d& g_ned,
                                const Eigen::Vector3d& wie_ned) {
   // Walk from the base (outermost axis) in to the platform, carrying the attitude C_child←base, the
   // table-relative rate w (child frame) and its child-frame derivative wd.
-  Eigen::Matrix3d C = Eigen::Matrix3d::Identity();  // C_frame←ned
-  Eigen::Vector3d w = Eigen::Vector3d::Zero(), wd = Eigen::Vector3d::Zero();
+  M3 C = {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};  // C_frame←ned
+  V3 w = {{0, 0, 0}}, wd = {{0, 0, 0}};
   for (int i = P.n_axes - 1; i >= 0; --i) {
     const std::size_t u = static_cast<std::size_t>(i);
-    const Eigen::Vector3d& a = P.a[u];
+    const V3 a = from(P.a[u]);
     const double th = st.angle_rad[u] + P.zero_rad[u];
     const double thd = st.rate_rad_s[u];
     const double thdd = st.accel_rad_s2[u];
     // Rodrigues, transposed (child←parent): Rᵀ = I − s[a×] + (1 − c)[a×]².
     const double c = std::cos(th), s = std::sin(th);
-    const Eigen::Matrix3d Rt = Eigen::Matrix3d::Identity() - s * P.S[u] + (1.0 - c) * P.S2[u];
-    const Eigen::Vector3d wp = Rt * w;
+    M3 Rt;
+    for (int r = 0; r < 3; ++r)
+      for (int q = 0; q < 3; ++q) Rt.m[r][q] = (r == q ? 1.0 : 0.0) - s * P.S[u](r, q) + (1.0 - c) * P.S2[u](r, q);
+    const V3 wp = mul(Rt, w);
     // d/dt(Rᵀ) = −θ̇ [a×] Rᵀ (R leaves a invariant).
-    wd = -thd * a.cross(wp) + Rt * wd + thdd * a;
-    w = wp + thd * a;
-    C = Rt * C;
+    const V3 awp = cross(a, wp);
+    const V3 Rwd = mul(Rt, wd);
+    for (int k = 0; k < 3; ++k) {
+      wd.v[k] = -thd * awp.v[k] + Rwd.v[k] + thdd * a.v[k];
+      w.v[k] = wp.v[k] + thd * a.v[k];
+    }
+    C = mul(Rt, C);
   }
-  const Eigen::Matrix3d& Cip = P.C_imu_plat;
+  const M3 Cip = from(P.C_imu_plat);
   // Inertial rate of the platform: Earth rate (constant in the Earth-fixed base) plus the table rate.
-  const Eigen::Vector3d wie_p = C * wie_ned;
-  const Eigen::Vector3d w_ib = wie_p + w;
-  // Body-frame derivative of C·ω_ie: −ω_table × (C ω_ie). Same as the inertial derivative of ω_ib.
-  const Eigen::Vector3d wd_ib = -w.cross(wie_p) + wd;
-  const Eigen::Vector3d& r = P.lever_arm_m;
+  const V3 wie_p = mul(C, from(wie_ned));
+  V3 w_ib, wd_ib;
+  const V3 wxe = cross(w, wie_p);
+  for (int k = 0; k < 3; ++k) {
+    w_ib.v[k] = wie_p.v[k] + w.v[k];
+    // Body-frame derivative of C·ω_ie: −ω_table × (C ω_ie). Same as the inertial derivative of ω_ib.
+    wd_ib.v[k] = -wxe.v[k] + wd.v[k];
+  }
+  const V3 r = from(P.lever_arm_m);
   // f = −g (plumb-bob: Earth's centripetal term already inside g) + rigid-body lever-arm acceleration.
-  const Eigen::Vector3d f_p = -(C * g_ned) + wd_ib.cross(r) + w_ib.cross(w_ib.cross(r));
+  const V3 Cg = mul(C, from(g_ned));
+  const V3 t1 = cross(wd_ib, r), t2 = cross(w_ib, cross(w_ib, r));
+  V3 f_p;
+  for (int k = 0; k < 3; ++k) f_p.v[k] = -Cg.v[k] + t1.v[k] + t2.v[k];
   ImuKinematics k;
-  k.f_mps2 = Cip * f_p;
-  k.w_rad_s = Cip * w_ib;
-  k.wdot_rad_s2 = Cip * wd_ib;
-  k.C_imu_ned = Cip * C;
+  k.f_mps2 = to(mul(Cip, f_p));
+  k.w_rad_s = to(mul(Cip, w_ib));
+  k.wdot_rad_s2 = to(mul(Cip, wd_ib));
+  const M3 Cin = mul(Cip, C);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) k.C_imu_ned(i, j) = Cin.m[i][j];
   return k;
 }
 

@@ -180,10 +180,10 @@ void FixtureAccumulator::flush_block() {
       }
       cs.zz += block_.zz[static_cast<size_t>(c)];
       cs.n += block_.n;
-      if (block_.n >= 2) var_num_[c] += block_.within_variance(c) * static_cast<double>(block_.n - 1);
+      if (block_.n >= 3) var_num_[c] += block_.within_variance(c) * static_cast<double>(block_.n - 2);
     }
   }
-  if (block_.n >= 2) var_den_ += block_.n - 1;
+  if (block_.n >= 3) var_den_ += block_.n - 2;
 }
 
 int FixtureAccumulator::plateau_of(double T_C) {

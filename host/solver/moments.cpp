@@ -29,9 +29,21 @@ Eigen::Matrix4d BlockMoments::S() const {
 }
 
 double BlockMoments::within_variance(int c) const {
-  if (n < 2) return 0.0;
-  const double m = z1[static_cast<size_t>(c)] / static_cast<double>(n);
-  return std::max(0.0, (zz[static_cast<size_t>(c)] - m * z1[static_cast<size_t>(c)]) / static_cast<double>(n - 1));
+  // Residual variance about a straight line in temperature: a dwell's die drift times the bias tempco
+  // must not count as noise.
+  if (n < 3) return 0.0;
+  const auto& a = zs[static_cast<size_t>(c)];
+  Eigen::Matrix2d m;
+  m << s_pow[0], s_pow[1], s_pow[1], s_pow[2];
+  const Eigen::Vector2d v(a[0], a[1]);
+  double fit;
+  if (std::abs(m.determinant()) > 1e-12 * s_pow[0] * std::max(s_pow[2], 1e-300)) {
+    fit = v.dot(m.ldlt().solve(v));
+  } else {
+    fit = a[0] * a[0] / s_pow[0];  // constant temperature: plain variance
+  }
+  const double dof = static_cast<double>(n) - (fit == a[0] * a[0] / s_pow[0] ? 1.0 : 2.0);
+  return std::max(0.0, (zz[static_cast<size_t>(c)] - fit) / dof);
 }
 
 const Eigen::Matrix4d& node_to_coeff() {

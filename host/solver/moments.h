@@ -38,7 +38,7 @@ struct BlockMoments {
   // O(1) per sample: 7 powers + 6·5 products.
   void add(double T_C, const double z[kNumChannels]);
   Eigen::Matrix4d S() const;
-  double within_variance(int c) const;  // Σ (z − z̄)² / (n − 1), 0 if n < 2
+  double within_variance(int c) const;  // variance about a linear trend in T (dof n − 2); 0 if n < 3
   double mean_T() const { return n ? T0_C + kBlockTempScale * s_pow[1] / static_cast<double>(n) : T0_C; }
 };
 

@@ -131,6 +131,7 @@ void VirtualImu::stop() {
   running_.store(false);
   std::lock_guard<std::mutex> lk(mu_);
   save_flash_locked();
+  dropped_at_stop_ = impl_->linux_port ? impl_->linux_port->tx_dropped() : 0;
   impl_->linux_port.reset();
 }
 
@@ -145,6 +146,11 @@ std::uint32_t VirtualImu::active_table_seq() const {
   std::lock_guard<std::mutex> lk(mu_);
   const fw::StoreSlotInfo* a = fw::store_active(impl_->node->store);
   return a != nullptr ? a->seq : 0u;
+}
+
+std::uint64_t VirtualImu::bus_tx_dropped() const {
+  std::lock_guard<std::mutex> lk(mu_);
+  return impl_->linux_port ? impl_->linux_port->tx_dropped() : dropped_at_stop_;
 }
 
 std::vector<std::uint8_t> VirtualImu::flash_image() const {

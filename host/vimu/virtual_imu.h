@@ -71,6 +71,8 @@ class VirtualImu {
   void set_tx_drop_every(std::uint32_t n) { drop_every_.store(n); }
   fw::NodeCounters counters() const;
   std::uint32_t active_table_seq() const;
+  // Frames the bus backend could not deliver to some receiver (virtual bus: a reader fell behind).
+  std::uint64_t bus_tx_dropped() const;
   std::vector<std::uint8_t> flash_image() const;
 
  private:
@@ -89,6 +91,7 @@ class VirtualImu {
   std::atomic<bool> bus_off_{false};
   std::atomic<std::uint32_t> drop_every_{0};
   mutable std::mutex mu_;
+  std::uint64_t dropped_at_stop_ = 0;
 };
 
 }  // namespace imuforge::vimu

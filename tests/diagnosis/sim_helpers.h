@@ -30,6 +30,9 @@ inline json rich_campaign(const std::vector<double>& plateaus_C, double fs_hz) {
   for (double mid : {45.0, 135.0})
     for (double inner : {0.0, 90.0, 180.0, 270.0}) steps.push_back(pos(inner, mid, 0, 3));
   for (double inner : {45.0, 135.0, 225.0, 315.0}) steps.push_back(pos(inner, 90, 0, 3));
+  // 30° / 60° tilts: more input levels separate u², |u| (asymmetry) and u³.
+  for (double mid : {30.0, 60.0, 120.0, 150.0})
+    for (double inner : {0.0, 90.0}) steps.push_back(pos(inner, mid, 0, 3));
   const double rate_pos[6][2] = {{0, 0}, {90, 90}, {0, 90}, {0, 45}, {90, 45}, {45, 90}};
   for (auto& rp : rate_pos) {
     steps.push_back(pos(rp[0], rp[1], 0, 1));

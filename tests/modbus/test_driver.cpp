@@ -224,11 +224,11 @@ TEST(ModbusDriver, ExceptionsAreClearAndNotRetried) {
 TEST(ModbusDriver, BusyIsRetried) {
   Lab lab(50.0, "imuforge-chamber.json", false);
   auto t = fixture::open_rate_table(lab.cfg("table-1", "imuforge-table.json"));
-  t->connect();
+  t->command_position(0, 5.0);
   lab.bench->faults().exception_code = 6;  // slave device busy
   lab.bench->faults().exception_count = 2;
   t->command_position(0, 10.0);
-  EXPECT_EQ(lab.applied(), 1u);
+  EXPECT_EQ(lab.applied(), 2u);
   EXPECT_GE(t->stats().retries, 2u);
 }
 
@@ -237,11 +237,12 @@ TEST(ModbusDriver, LateAnswerIsConfirmedByReadBackNotSentTwice) {
   auto t = fixture::open_rate_table(lab.cfg("table-1", "imuforge-table.json"));
   std::vector<std::string> notices;
   t->set_notice_handler([&](const std::string& s) { notices.push_back(s); });
-  t->connect();
+  t->command_position(0, 0.0);  // the driver learns the sequence number with its first command
+  ASSERT_EQ(lab.applied(), 1u);
   lab.bench->faults().delay_ms = 700;  // > the 0.3 s response timeout
   lab.bench->faults().delay_count = 1;
   t->command_position(0, 10.0);
-  EXPECT_EQ(lab.applied(), 1u);
+  EXPECT_EQ(lab.applied(), 2u);
   EXPECT_EQ(t->stats().confirmed_by_readback, 1u);
   EXPECT_EQ(t->stats().resent, 0u);
   EXPECT_GE(t->stats().timeouts, 1u);
@@ -269,10 +270,11 @@ TEST(ModbusDriver, LostRequestIsResentWithNotice) {
   auto t = fixture::open_rate_table(lab.cfg("table-1", "imuforge-table.json"));
   std::vector<std::string> notices;
   t->set_notice_handler([&](const std::string& s) { notices.push_back(s); });
-  t->connect();
+  t->command_rate(2, 1.0);
+  ASSERT_EQ(lab.applied(), 1u);
   lab.bench->faults().ignore_count = 1;
   t->command_rate(2, 5.0);
-  EXPECT_EQ(lab.applied(), 1u);
+  EXPECT_EQ(lab.applied(), 2u);
   EXPECT_EQ(t->stats().resent, 1u);
   EXPECT_EQ(t->stats().confirmed_by_readback, 0u);
   bool told = false;
@@ -309,7 +311,8 @@ TEST(ModbusDriver, ServerDiesDuringACommandWhichLandsExactlyOnce) {
   cfg.link.backoff_s = 0.05;
   auto t = fixture::open_rate_table(cfg);
   t->set_notice_handler([](const std::string&) {});
-  t->connect();
+  t->command_position(1, 0.0);
+  ASSERT_EQ(lab.applied(), 1u);
   lab.kill();
   std::thread reviver([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -317,7 +320,7 @@ TEST(ModbusDriver, ServerDiesDuringACommandWhichLandsExactlyOnce) {
   });
   t->command_position(1, -60.0);
   reviver.join();
-  EXPECT_EQ(lab.applied(), 1u);
+  EXPECT_EQ(lab.applied(), 2u);
   EXPECT_GE(t->stats().reconnects, 1u);
   ASSERT_TRUE(t->wait_settled(1, 30.0));
   EXPECT_NEAR(t->status(1).angle_deg, -60.0, 1e-4);

@@ -144,17 +144,18 @@ TEST(ModbusMbpoll, TcpRegistersAsDocumented) {
   Child b;
   const Ready r = start_bench(b, {"--tcp-port", "0", "--time-scale", "200"});
   ASSERT_GT(r.port, 0);
-  const std::string mb = mb_tcp(r.port) + "127.0.0.1 ";
-  ShellResult x = sh(mb + "-r 1002");
+  const std::string mb = mb_tcp(r.port);
+  const std::string H = " 127.0.0.1";
+  ShellResult x = sh(mb + "-r 1002" + H);
   ASSERT_EQ(x.rc, 0) << x.out;
   EXPECT_EQ(value_at(x.out, 1002), 3);  // axes
   // Axis 0 to +45 deg: mode=1, command=450000 (int32 high word first = 6, 56784), cmd_seq=1, one FC16.
   x = sh(mb + "-r 1100 127.0.0.1 1 6 56784 1");
   ASSERT_EQ(x.rc, 0) << x.out;
-  const std::string angle0 = mb + "-t 4:int -B -r 1110";
+  const std::string angle0 = mb + "-t 4:int -B -r 1110" + H;
   EXPECT_TRUE(wait_value(angle0, 1110, 450000));
-  EXPECT_TRUE(wait_value(mb + "-r 1114", 1114, 3));  // in_position | settled
-  EXPECT_EQ(value_at(sh(mb + "-r 1104").out, 1104), 1);  // seq_ack
+  EXPECT_TRUE(wait_value(mb + "-r 1114" + H, 1114, 3));  // in_position | settled
+  EXPECT_EQ(value_at(sh(mb + "-r 1104" + H).out, 1104), 1);  // seq_ack
   // A negative command as a 32-bit value, then the sequence number that applies it.
   x = sh(mb + "-t 4:int -B -r 1101 127.0.0.1 -- -125000");
   ASSERT_EQ(x.rc, 0) << x.out;
@@ -164,7 +165,7 @@ TEST(ModbusMbpoll, TcpRegistersAsDocumented) {
   // Chamber: ramp 5.00 degC/min (u16, 0.01), setpoint 40.000 degC (int32, 0.001).
   ASSERT_EQ(sh(mb + "-r 2004 127.0.0.1 500").rc, 0);
   ASSERT_EQ(sh(mb + "-t 4:int -B -r 2002 127.0.0.1 40000").rc, 0);
-  x = sh(mb + "-t 4:int -B -r 2000 -c 2");
+  x = sh(mb + "-t 4:int -B -r 2000 -c 2" + H);
   EXPECT_EQ(value_at(x.out, 2002), 40000);
   EXPECT_GT(value_at(x.out, 2000), 25000);  // the air is heating (time runs 200x)
   EXPECT_LT(value_at(x.out, 2000), 40000);
@@ -184,7 +185,7 @@ TEST(ModbusMbpoll, RtuOnBenchSimPty) {
   ShellResult x = sh(mb_rtu() + "-r 1002 " + r.rtu);
   ASSERT_EQ(x.rc, 0) << x.out;
   EXPECT_EQ(value_at(x.out, 1002), 3);
-  ASSERT_EQ(sh(mb_rtu() + "-r 1200 " + r.rtu + " 2 0 100000 1").rc, 0);  // axis 1 at 10 deg/s
+  ASSERT_EQ(sh(mb_rtu() + "-r 1200 " + r.rtu + " 2 1 34464 1").rc, 0);  // axis 1 at 10 deg/s
   EXPECT_TRUE(wait_value(mb_rtu() + "-t 4:int -B -r 1212 " + r.rtu, 1212, 100000));
 }
 
