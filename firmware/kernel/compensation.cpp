@@ -45,6 +45,7 @@ void interp_f32(KernelF32* k, float T) noexcept {
     Tc = bp[n - 1];
     st = kStatusTempClamped;
   }
+  if (n == 1) st = 0;  // a one-breakpoint table is temperature-independent: nothing to clamp
   std::size_t i = 0;
   while (i + 2 < n && Tc >= bp[i + 1]) ++i;
   float w = 0.0f;
@@ -208,12 +209,18 @@ int frac_bits_for(double vmax, std::int64_t limit) noexcept {
   return f;
 }
 
-// Round-half-up shift right by s (s may be ≤ 0: exact shift left). Arithmetic >> on signed values is
-// what GCC and Clang do; the project only builds with those.
+// Round-half-up shift right by s (s ≤ 0: shift left, saturating). Every caller passes |v| < 2^62, so a
+// right shift by 63 or more rounds to 0. Arithmetic >> on signed values is what GCC and Clang do; the
+// project only builds with those.
 std::int64_t shift_round(std::int64_t v, int s) noexcept {
+  if (s >= 63) return 0;
   if (s > 0) return (v + (static_cast<std::int64_t>(1) << (s - 1))) >> s;
-  if (s < 0) return v * (static_cast<std::int64_t>(1) << (-s));
-  return v;
+  if (s == 0) return v;
+  const int l = -s;
+  const std::int64_t lim = l >= 63 ? 0 : (INT64_MAX >> l);
+  if (v > lim) return INT64_MAX;
+  if (v < -lim) return -INT64_MAX;
+  return v * (static_cast<std::int64_t>(1) << l);
 }
 std::int32_t sat_i32(std::int64_t v, std::int64_t lim) noexcept {
   return static_cast<std::int32_t>(v > lim ? lim : (v < -lim ? -lim : v));
@@ -237,6 +244,7 @@ void interp_q(KernelQ* k, std::int32_t T) noexcept {
     Tc = bp[n - 1];
     st = kStatusTempClamped;
   }
+  if (n == 1) st = 0;  // a one-breakpoint table is temperature-independent: nothing to clamp
   std::size_t i = 0;
   while (i + 2 < n && Tc >= bp[i + 1]) ++i;
   std::int32_t w = 0;

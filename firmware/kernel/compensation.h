@@ -6,7 +6,8 @@
 //
 // Coefficients come from a validated coefficient table v1 (firmware/table/table.h) and are interpolated
 // linearly in temperature between its breakpoints; outside the range the temperature is clamped and
-// kStatusTempClamped is set. Interpolation is redone only when the temperature moved by MORE than the
+// kStatusTempClamped is set (never for a one-breakpoint table, which is temperature-independent).
+// A NaN temperature counts as below the range. Interpolation is redone only when the temperature moved by MORE than the
 // configured step since the last interpolation (|T − T_cached| > step; step 0 = on every change).
 // Each re-interpolation folds LSB, C, b and G into one cached affine correction:
 //     accel_out = A_a · raw_a + o_a                    (3×3 matrix + offset)

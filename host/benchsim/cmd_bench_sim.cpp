@@ -27,8 +27,9 @@ int run_bench_sim(int argc, char** argv) {
   double time_scale = 1.0, duration_s = 0.0;
   std::string table_map = "imuforge-table.json", chamber_map = "imuforge-chamber.json";
   std::string campaign, sensor, bus, world_json;
-  uint64_t seed = 1;
-  bool no_tcp = false;
+  uint64_t seed = 1, serial = 1;
+  int node_id = 1;
+  bool no_tcp = false, stdin_eof_exits = false;
   app.add_option("--tcp-port", so.tcp_port, "Modbus TCP port (0: pick a free port; default 1502)");
   app.add_flag("--no-tcp", no_tcp, "do not serve Modbus TCP");
   app.add_option("--bind", so.bind, "address to listen on (default 127.0.0.1, loopback only)");
@@ -44,6 +45,10 @@ int run_bench_sim(int argc, char** argv) {
   app.add_option("--sensor", sensor, "sensor model JSON for the virtual IMU");
   app.add_option("--bus", bus, "CAN bus for the virtual IMU: virtual:NAME or socketcan:IFNAME (none: no IMU)");
   app.add_option("--seed", seed, "seed of the sensor's noise (default 1)");
+  app.add_option("--serial", serial, "serial number of the virtual IMU (default 1)");
+  app.add_option("--node", node_id, "CAN node id of the virtual IMU (default 1)")->check(CLI::Range(1, 127));
+  app.add_flag("--stdin-eof-exits", stdin_eof_exits,
+               "exit when stdin reaches end of file (a parent that dies takes bench-sim with it)");
   app.add_option("--duration", duration_s, "stop after this many wall seconds (default: until SIGINT/SIGTERM)");
   app.add_flag("--debug", so.debug, "dump Modbus frames on stderr");
   try {
@@ -89,7 +94,13 @@ int run_bench_sim(int argc, char** argv) {
   std::unique_ptr<benchsim::ImuLink> imu;
   if (!bus.empty()) {
     try {
-      imu = benchsim::start_imu(*bench, bus, sensor, seed);
+      benchsim::ImuOptions io;
+      io.bus = bus;
+      io.sensor_path = sensor;
+      io.seed = seed;
+      io.serial = serial;
+      io.node_id = node_id;
+      imu = benchsim::start_imu(*bench, io);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "imuforge bench-sim: virtual IMU on %s: %s\n", bus.c_str(), e.what());
       return app::kExitPeer;
@@ -102,6 +113,14 @@ int run_bench_sim(int argc, char** argv) {
               bus.empty() ? "-" : bus.c_str());
   std::fflush(stdout);
 
+  if (stdin_eof_exits) {
+    std::thread([] {
+      char buf[256];
+      while (std::fread(buf, 1, sizeof buf, stdin) > 0) {
+      }
+      g_stop = 1;
+    }).detach();
+  }
   const auto t_end = std::chrono::steady_clock::now() + std::chrono::duration<double>(duration_s);
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));

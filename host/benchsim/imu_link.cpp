@@ -92,10 +92,11 @@ hal::ImuRawSample ImuSampler::sample(double t_s) {
 namespace {
 class VimuLink final : public ImuLink {
  public:
-  VimuLink(Bench& bench, const std::string& bus, const std::string& sensor, uint64_t seed)
-      : sampler_(bench, sensor, seed) {
+  VimuLink(Bench& bench, const ImuOptions& o) : sampler_(bench, o.sensor_path, o.seed) {
     vimu::VirtualImuConfig cfg;
-    cfg.bus = bus;
+    cfg.bus = o.bus;
+    cfg.serial = o.serial;
+    cfg.node_id = static_cast<std::uint8_t>(o.node_id);
     // The node's clock starts at 0 when it starts; the world may already be running. Node time is
     // wall time, so it is scaled into simulated time here.
     const double t0 = bench.now_s();
@@ -115,12 +116,12 @@ class VimuLink final : public ImuLink {
 };
 }  // namespace
 
-std::unique_ptr<ImuLink> start_imu(Bench& bench, const std::string& bus, const std::string& sensor_path, uint64_t seed) {
-  return std::make_unique<VimuLink>(bench, bus, sensor_path, seed);
+std::unique_ptr<ImuLink> start_imu(Bench& bench, const ImuOptions& opt) {
+  return std::make_unique<VimuLink>(bench, opt);
 }
 #else
-std::unique_ptr<ImuLink> start_imu(Bench&, const std::string& bus, const std::string&, uint64_t) {
-  throw std::runtime_error("this build has no virtual IMU (host/vimu is missing), cannot serve " + bus);
+std::unique_ptr<ImuLink> start_imu(Bench&, const ImuOptions& opt) {
+  throw std::runtime_error("this build has no virtual IMU (host/vimu is missing), cannot serve " + opt.bus);
 }
 #endif
 

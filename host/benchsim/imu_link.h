@@ -34,7 +34,15 @@ class ImuSampler {
   std::unique_ptr<Impl> impl_;
 };
 
-// Start the virtual IMU on `bus` ("virtual:NAME" or "socketcan:IF"). Throws std::runtime_error.
-std::unique_ptr<ImuLink> start_imu(Bench& bench, const std::string& bus, const std::string& sensor_path, uint64_t seed);
+struct ImuOptions {
+  std::string bus;          // "virtual:NAME" or "socketcan:IF"
+  std::string sensor_path;  // sensor model JSON; empty: ideal sensor
+  uint64_t seed = 1;
+  uint64_t serial = 1;
+  int node_id = 1;
+};
+
+// Start the virtual IMU. Throws std::runtime_error (bad bus, bad sensor file, no vimu in this build).
+std::unique_ptr<ImuLink> start_imu(Bench& bench, const ImuOptions& opt);
 
 }  // namespace imuforge::benchsim

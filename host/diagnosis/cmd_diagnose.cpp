@@ -103,8 +103,8 @@ int run_diagnose(int argc, char** argv) {
     if (mode == "reference-free" || (mode == "auto" && !any_ref)) {
       rf = std::make_unique<diagnosis::ReferenceFreeSource>(*src, real.meta().gravity_mps2);
       src = rf.get();
-      std::printf("reference-free: %d static poses (%.0f s); gravity-magnitude RMS over poses %.4g -> %.4g m/s^2\n",
-                  rf->info().poses, rf->info().static_s, rf->info().accel_rms_before, rf->info().accel_rms_after);
+      std::printf("reference-free: %d static poses (%.0f s); gravity-magnitude fit with %d parameters: RMS over poses %.4g -> %.4g m/s^2\n",
+                  rf->info().poses, rf->info().static_s, rf->info().calibrated_params, rf->info().accel_rms_before, rf->info().accel_rms_after);
     } else if (mode == "fixture" && !any_ref) {
       std::fprintf(stderr, "imuforge diagnose: %s has no reference columns; use --mode reference-free or --sim\n", log_path.c_str());
       return app::kExitFailed;

@@ -148,7 +148,7 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
   Pass1 out;
   const double dur = p0.t_last - p0.t_first;
   const double min_block_s = std::max(2.0 / p0.fs, dur / std::max(1, opt.max_blocks));
-  const long long max_bins = 1LL << 21;
+  const long long max_bins = 1LL << 20;
   const long m0 = std::max<long long>(1, (p0.n + max_bins - 1) / max_bins);
   for (auto& a : out.allan) a.set_tau0(static_cast<double>(m0) / p0.fs);
   const int np[2] = {static_cast<int>(ids[0].size()), static_cast<int>(ids[1].size())};
@@ -162,6 +162,15 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
   double last_ref_t = -1e300;
   bool last_had_ref = false;
 
+  std::array<std::vector<double>, kNumAxes> run_series;
+  int run_unit = -1;
+  auto flush_run = [&]() {
+    for (int a = 0; a < kNumAxes; ++a) {
+      out.allan[static_cast<std::size_t>(a)].add_series(run_series[static_cast<std::size_t>(a)]);
+      run_series[static_cast<std::size_t>(a)].clear();
+    }
+    run_unit = -1;
+  };
   auto close_block = [&]() {
     if (!acc.open) return;
     Block& b = acc.b;
@@ -182,8 +191,20 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
     for (int k = 0; k < 3; ++k) frange = std::max(frange, acc.fmax[k] - acc.fmin[k]);
     const double Trange = acc.nT > 0 ? acc.Tmax - acc.Tmin : 0.0;
     b.is_static = acc.maxw < 0.01 && frange < 0.05 && Trange < opt.block_temp_tol_C && b.n >= 8;
-    if (b.is_static)
-      for (int a = 0; a < kNumAxes; ++a) out.allan[static_cast<std::size_t>(a)].add_series(acc.series[static_cast<std::size_t>(a)]);
+    // Static blocks of one segment are joined into one Allan series (long τ needs long records).
+    if (b.is_static && b.unit == run_unit) {
+      for (int a = 0; a < kNumAxes; ++a) {
+        auto& rs = run_series[static_cast<std::size_t>(a)];
+        const auto& bs = acc.series[static_cast<std::size_t>(a)];
+        rs.insert(rs.end(), bs.begin(), bs.end());
+      }
+    } else {
+      flush_run();
+      if (b.is_static) {
+        run_unit = b.unit;
+        for (int a = 0; a < kNumAxes; ++a) run_series[static_cast<std::size_t>(a)] = acc.series[static_cast<std::size_t>(a)];
+      }
+    }
     out.blocks.push_back(std::move(b));
     acc = BlockAcc{};
   };
@@ -306,6 +327,7 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
     if (have_cur) have_next = src.next(nxt);
   }
   close_block();
+  flush_run();
   out.n_units = unit + 1;
   return out;
 }

@@ -119,7 +119,7 @@ ReferenceFreeSource::ReferenceFreeSource(SampleSource& inner, double g, double w
     i = j;
   }
   info_.poses = static_cast<int>(means.size());
-  if (info_.poses < 3) throw DiagnosisError("reference-free: fewer than 3 static poses detected (" + std::to_string(info_.poses) + ")");
+  if (info_.poses < 1) throw DiagnosisError("reference-free: no static interval detected");
   // Gravity-magnitude calibration, f = T (y − b), T lower triangular (6) + b (3), Gauss-Newton with a
   // numerical Jacobian (9 parameters, a few dozen poses: cost is negligible).
   Eigen::VectorXd p = Eigen::VectorXd::Zero(9);
@@ -137,18 +137,25 @@ ReferenceFreeSource::ReferenceFreeSource(SampleSource& inner, double g, double w
     return r;
   };
   info_.accel_rms_before = std::sqrt(resid(p).squaredNorm() / static_cast<double>(means.size()));
-  const bool enough = means.size() >= 12;  // 9 parameters need clearly more poses than that
-  if (enough) {
+  // 9 parameters need clearly more poses than that; with 7..11 poses only bias and the three scales are
+  // fitted (the off-diagonal terms stay 0); with fewer the raw directions are used as they are.
+  const bool full = means.size() >= 12, diag_only = !full && means.size() >= 7;
+  info_.calibrated_params = full ? 9 : diag_only ? 6 : 0;
+  if (full || diag_only) {
     for (int it = 0; it < 50; ++it) {
       Eigen::VectorXd r = resid(p);
       Eigen::MatrixXd Jm(r.size(), 9);
       for (int c = 0; c < 9; ++c) {
+        if (diag_only && (c == 1 || c == 2 || c == 4)) {
+          Jm.col(c).setZero();
+          continue;
+        }
         Eigen::VectorXd q = p;
         const double h = 1e-7 * std::max(1.0, std::fabs(p[c]));
         q[c] += h;
         Jm.col(c) = (resid(q) - r) / h;
       }
-      Eigen::VectorXd dp = (Jm.transpose() * Jm + 1e-12 * Eigen::MatrixXd::Identity(9, 9)).ldlt().solve(-Jm.transpose() * r);
+      Eigen::VectorXd dp = (Jm.transpose() * Jm + 1e-9 * Eigen::MatrixXd::Identity(9, 9)).ldlt().solve(-Jm.transpose() * r);
       p += dp;
       if (dp.norm() < 1e-12) break;
     }

@@ -45,6 +45,7 @@ class PairedSource : public SampleSource {
 // carry no reference. What this cannot see: any error along the pose direction orthogonal to |f|.
 struct ReferenceFreeInfo {
   int poses = 0;
+  int calibrated_params = 0;  // 9 (≥12 poses), 6 (bias + scales, 7..11 poses) or 0 (raw directions)
   double static_s = 0;
   double gravity_mps2 = 9.80665;
   double accel_rms_before = 0, accel_rms_after = 0;  // RMS of |f| − g over pose means, raw vs calibrated

@@ -64,8 +64,8 @@ constexpr int kFlickerTerms = 3;
 
 // Stochastic part of one sensor axis at a fixed sample interval dt.
 // bias instability B: kFlickerTerms Gauss-Markov processes with correlation times tau_s·{0.1, 1, 10},
-// each of standard deviation σ_gm = B·kFlickerSigmaPerB, chosen so the Allan deviation of the sum has a
-// flat floor ≈ 0.664·B between ~0.2·tau_s and ~20·tau_s (see docs/error-model.md).
+// each of standard deviation σ_gm = B·kFlickerSigmaPerB, chosen so the Allan deviation of the sum stays
+// within 10 % of 0.664·B between 0.2·tau_s and 10·tau_s (see docs/error-model.md).
 constexpr double kFlickerSigmaPerB = 0.664 / 0.62 / 1.2247;  // per-term σ / B (three overlapping humps)
 
 struct AxisNoise {

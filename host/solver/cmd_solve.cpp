@@ -201,7 +201,10 @@ int run_solve(int argc, char** argv) {
     res.noise_sigma = r.noise_sigma;
     res.noise_source = "static";
     res.samples = r.samples;
-    res.extra["fixture_errors"] = {{"nuisance", r.nuisance_names}, {"iterations", r.iterations}};
+    res.extra["fixture_errors"] = {{"nuisance", r.nuisance_names}, {"fixed_by_gauge", r.fixed}, {"iterations", r.iterations}};
+    if (!r.fixed.empty())
+      std::printf("fixture+errors: fixed at 0 (inseparable from the misalignments): %s\n",
+                  nlohmann::json(r.fixed).dump().c_str());
     print_estimate(res.estimate, true);
   } else {
     // fixture (inverse or traditional), optionally online

@@ -1,9 +1,269 @@
 #include "host/solver/fixture_errors.h"
 
+#include <cmath>
+
+#include "host/model/measure.h"
+#include "host/sim/earth.h"
+#include "host/sim/table.h"
+#include "host/sim/timeline.h"
+
 namespace imuforge::solver {
 
-FixtureErrorsResult solve_fixture_errors(io::LogReader&, const model::ModelSpec&, const std::string&) {
-  throw SolverError("fixture+errors mode is not implemented yet");
+namespace {
+
+using model::Sensor;
+
+struct Nuisance {
+  std::string name;
+  int axis;   // table axis, or -1 for the mount
+  int what;   // 0 tilt_a, 1 tilt_b, 2 zero; mount: component 0..2
+};
+
+sim::TableGeometry apply(const sim::TableGeometry& nominal, const std::vector<Nuisance>& nu, const Eigen::VectorXd& eta) {
+  sim::TableGeometry g = nominal;
+  for (size_t k = 0; k < nu.size(); ++k) {
+    const Nuisance& n = nu[k];
+    const double v = eta[static_cast<long>(k)];
+    if (n.axis < 0) {
+      g.mount.rot_error_rad[n.what] = v;
+    } else {
+      auto& e = g.axes[static_cast<size_t>(n.axis)].error;
+      (n.what == 0 ? e.tilt_a_rad : n.what == 1 ? e.tilt_b_rad : e.zero_rad) = v;
+    }
+  }
+  return g;
+}
+
+class FixtureErrorsProblem : public NonlinearProblem {
+ public:
+  FixtureErrorsProblem(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& c, std::vector<Nuisance> nu,
+                       const Sigma6& sigma)
+      : log_(log), spec_(spec), nu_(std::move(nu)), sigma_(sigma) {
+    ids_all_ = spec.parameters();
+    for (size_t i = 0; i < ids_all_.size(); ++i) {
+      const int s = static_cast<int>(model::param_info(ids_all_[i]).sensor);
+      ids_[static_cast<size_t>(s)].push_back(ids_all_[i]);
+      pos_[static_cast<size_t>(s)].push_back(static_cast<int>(i));
+    }
+    for (const auto& e : spec.effects)
+      if (e.per_plateau) throw SolverError("fixture+errors mode: per-plateau parameters are not supported; use polynomials");
+    nominal_ = sim::geometry_from_campaign(c).nominal();
+    sim::Site site;
+    site.latitude_deg = c.latitude_deg;
+    site.height_m = c.height_m;
+    g_ned_ = sim::gravity_ned(site);
+    wie_ned_ = sim::earth_rate_ned(site);
+    lsb_[0] = log.meta().accel_lsb_mps2;
+    lsb_[1] = log.meta().gyro_lsb_rad_s;
+    if (log.meta().table_axes != nominal_.n_axes)
+      throw SolverError("fixture+errors: the log has " + std::to_string(log.meta().table_axes) +
+                        " table angle columns but the campaign's table has " + std::to_string(nominal_.n_axes) + " axes");
+  }
+  int n_model() const { return static_cast<int>(ids_all_.size()); }
+  int num_params() const override { return n_model() + static_cast<int>(nu_.size()); }
+  const std::vector<Nuisance>& nuisance() const { return nu_; }
+  long long samples() const { return samples_; }
+  Sigma6 residual_rms() const { return rms_; }
+
+  void linearize(const Eigen::VectorXd& x, NormalEquations& ne) const override {
+    const int nm = n_model(), nn = static_cast<int>(nu_.size()), n = nm + nn;
+    ne.reset(n);
+    model::ParamSet ps;
+    for (int i = 0; i < nm; ++i) ps[ids_all_[static_cast<size_t>(i)]] = x[i];
+    const model::CompiledTriad ct[2] = {model::compile(ps, Sensor::kAccel, spec_.T_ref_C),
+                                        model::compile(ps, Sensor::kGyro, spec_.T_ref_C)};
+    const Eigen::VectorXd eta = x.tail(nn);
+    constexpr double h = 1e-7;  // rad: central differences on the kinematics
+    std::vector<sim::PreparedTable> tables;
+    tables.emplace_back(apply(nominal_, nu_, eta));
+    for (int k = 0; k < nn; ++k)
+      for (double sgn : {1.0, -1.0}) {
+        Eigen::VectorXd e2 = eta;
+        e2[k] += sgn * h;
+        tables.emplace_back(apply(nominal_, nu_, e2));
+      }
+    log_.rewind();
+    model::HysteresisTracker hyst;
+    io::LogRow row;
+    sim::TableState last{};
+    bool have_last = false;
+    std::vector<sim::ImuKinematics> kin(tables.size());
+    Eigen::MatrixXd info = Eigen::MatrixXd::Zero(n, n);
+    Eigen::VectorXd jrow(n);
+    std::array<Eigen::Matrix<double, 3, Eigen::Dynamic>, 2> J;
+    for (int s = 0; s < 2; ++s) J[static_cast<size_t>(s)].resize(3, static_cast<long>(ids_[static_cast<size_t>(s)].size()));
+    Sigma6 rss{};
+    long long count = 0;
+    while (log_.next(row)) {
+      const double d = hyst.update(row.temp_C);
+      if (row.segment < 0 || !row.has_ref) continue;
+      sim::TableState st{};
+      bool ok = true;
+      for (int a = 0; a < nominal_.n_axes; ++a) {
+        st.angle_rad[static_cast<size_t>(a)] = row.table_angle_rad[a];
+        st.rate_rad_s[static_cast<size_t>(a)] = row.table_rate_rad_s[a];
+        ok = ok && std::isfinite(row.table_angle_rad[a]) && std::isfinite(row.table_rate_rad_s[a]);
+      }
+      if (!ok) continue;
+      if (!have_last || st.angle_rad != last.angle_rad || st.rate_rad_s != last.rate_rad_s) {
+        for (size_t t = 0; t < tables.size(); ++t) kin[t] = sim::table_kinematics(tables[t], st, g_ned_, wie_ned_);
+        last = st;
+        have_last = true;
+      }
+      const double T = std::isfinite(row.temp_C) ? row.temp_C : spec_.T_ref_C;
+      auto input = [&](const sim::ImuKinematics& k) {
+        model::MeasureInput in;
+        in.f = k.f_mps2;
+        in.w = k.w_rad_s;
+        in.wdot = k.wdot_rad_s2;
+        in.T_C = T;
+        in.d = d;
+        in.t_s = row.t_s;
+        return in;
+      };
+      const model::MeasureInput in0 = input(kin[0]);
+      for (int s = 0; s < 2; ++s) {
+        const auto& ids = ids_[static_cast<size_t>(s)];
+        if (!ids.empty()) model::regressors(static_cast<Sensor>(s), ids, in0, spec_.T_ref_C, J[static_cast<size_t>(s)]);
+        const Eigen::Vector3d p0 = model::measure(ct[s], in0);
+        Eigen::Matrix<double, 3, Eigen::Dynamic> dn(3, nn);
+        for (int k = 0; k < nn; ++k) {
+          const Eigen::Vector3d pp = model::measure(ct[s], input(kin[static_cast<size_t>(1 + 2 * k)]));
+          const Eigen::Vector3d pm = model::measure(ct[s], input(kin[static_cast<size_t>(2 + 2 * k)]));
+          dn.col(k) = (pp - pm) / (2 * h);
+        }
+        for (int j = 0; j < 3; ++j) {
+          const int c = 3 * s + j;
+          jrow.setZero();
+          for (size_t i = 0; i < ids.size(); ++i) jrow[pos_[static_cast<size_t>(s)][i]] = J[static_cast<size_t>(s)](j, static_cast<long>(i));
+          jrow.tail(nn) = dn.row(j).transpose();
+          const double r = row.raw[c] * lsb_[s] - p0[j];
+          const double w = 1.0 / (sigma_[static_cast<size_t>(c)] * sigma_[static_cast<size_t>(c)]);
+          info.selfadjointView<Eigen::Lower>().rankUpdate(jrow, w);
+          ne.rhs.noalias() += (w * r) * jrow;
+          ne.cost += w * r * r;
+          rss[static_cast<size_t>(c)] += r * r;
+        }
+      }
+      ++count;
+    }
+    ne.info = info.selfadjointView<Eigen::Lower>();
+    ne.n_obs = 6 * count;
+    samples_ = count;
+    for (int c = 0; c < 6; ++c) rms_[static_cast<size_t>(c)] = count ? std::sqrt(rss[static_cast<size_t>(c)] / count) : 0.0;
+  }
+
+ private:
+  io::LogReader& log_;
+  const model::ModelSpec& spec_;
+  std::vector<Nuisance> nu_;
+  Sigma6 sigma_;
+  std::vector<model::ParamId> ids_all_;
+  std::array<std::vector<model::ParamId>, 2> ids_;
+  std::array<std::vector<int>, 2> pos_;
+  sim::TableGeometry nominal_;
+  Eigen::Vector3d g_ned_, wie_ned_;
+  double lsb_[2];
+  mutable long long samples_ = 0;
+  mutable Sigma6 rms_{};
+};
+
+}  // namespace
+
+FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& c,
+                                         const FixtureErrorsOptions& opt) {
+  // Pass 0: the plain fixture solution (initial model values) and the within-dwell noise.
+  FixtureAccumulator acc(spec, log.meta());
+  io::LogRow row;
+  log.rewind();
+  while (log.next(row)) acc.add(row);
+  acc.finish();
+  const Sigma6 sigma = acc.static_noise_sigma();
+  std::vector<Nuisance> nu;
+  const int n_axes = static_cast<int>(c.axes.size());
+  for (int a = 0; a < n_axes; ++a) {
+    const std::string p = "fixture.axis" + std::to_string(a) + ".";
+    nu.push_back({p + "tilt_a", a, 0});
+    nu.push_back({p + "tilt_b", a, 1});
+    nu.push_back({p + "zero", a, 2});
+  }
+  if (opt.mount)
+    for (int k = 0; k < 3; ++k) nu.push_back({std::string("fixture.mount.r") + "xyz"[k], -1, k});
+  const int nm = static_cast<int>(spec.parameters().size());
+  Eigen::VectorXd theta0 = Eigen::VectorXd::Zero(nm);
+  try {
+    theta0 = solve_fixture(acc, sigma).estimate.value;
+  } catch (const SolverError&) {
+    // The plain fixture problem may be ill-posed on its own; start from zero.
+  }
+  FixtureErrorsResult res;
+  // Gauge: fix nuisance parameters that sit in unobservable directions at the start point.
+  for (int round = 0; round < 20; ++round) {
+    FixtureErrorsProblem prob(log, spec, c, nu, sigma);
+    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(prob.num_params());
+    x0.head(nm) = theta0;
+    NormalEquations ne(prob.num_params());
+    prob.linearize(x0, ne);
+    std::vector<std::string> names;
+    for (model::ParamId id : spec.parameters()) names.push_back(model::param_info(id).name);
+    for (const auto& n : nu) names.push_back(n.name);
+    const Observability obs = analyse_observability(ne.info, names);
+    if (obs.rank == prob.num_params()) break;
+    // The scaled null vectors: fix the nuisance parameter with the largest weight in the first one.
+    const Eigen::VectorXd d = ne.info.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(d.asDiagonal() * ne.info * d.asDiagonal());
+    const Eigen::VectorXd v = es.eigenvectors().col(0);
+    int best = -1;
+    double bw = 0.05;
+    for (int k = 0; k < static_cast<int>(nu.size()); ++k)
+      if (std::abs(v[nm + k]) > bw) {
+        bw = std::abs(v[nm + k]);
+        best = k;
+      }
+    if (best < 0) {
+      // No nuisance parameter involved: a genuine deficiency of the model/campaign; report it by name.
+      covariance_from_information(ne.info, names);
+    }
+    res.fixed.push_back(nu[static_cast<size_t>(best)].name);
+    nu.erase(nu.begin() + best);
+  }
+  FixtureErrorsProblem prob(log, spec, c, nu, sigma);
+  Eigen::VectorXd x0 = Eigen::VectorXd::Zero(prob.num_params());
+  x0.head(nm) = theta0;
+  LmOptions lo;
+  lo.max_iterations = opt.max_iterations;
+  const LmResult lm = levenberg_marquardt(prob, x0, lo);
+  if (!lm.converged) throw SolverError("fixture+errors: Levenberg-Marquardt did not converge in " +
+                                       std::to_string(lm.iterations) + " iterations");
+  std::vector<std::string> names;
+  for (model::ParamId id : spec.parameters()) names.push_back(model::param_info(id).name);
+  for (const auto& n : nu) {
+    names.push_back(n.name);
+    res.nuisance_names.push_back(n.name);
+  }
+  res.estimate.names = names;
+  res.estimate.value = lm.theta;
+  res.estimate.covariance = covariance_from_information(lm.normal.info, names, &res.observability);
+  res.iterations = lm.iterations;
+  res.noise_sigma = sigma;
+  NormalEquations tmp(prob.num_params());
+  prob.linearize(lm.theta, tmp);  // residual RMS at the solution
+  res.residual_rms = prob.residual_rms();
+  res.samples = prob.samples();
+  return res;
+}
+
+FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const std::string& campaign_path) {
+  sim::Campaign c;
+  try {
+    c = sim::load_campaign(campaign_path);
+  } catch (const std::exception& e) {
+    throw SolverError("campaign '" + campaign_path + "': " + e.what());
+  }
+  FixtureErrorsOptions o;
+  if (auto it = spec.extra.find("fixture_nuisance"); it != spec.extra.end() && it->is_object())
+    o.mount = it->value("mount", false);
+  return solve_fixture_errors(log, spec, c, o);
 }
 
 }  // namespace imuforge::solver

@@ -1,5 +1,18 @@
-// Fixture+errors mode: the rate table's axis tilts, encoder zero offsets and the IMU mount rotation are
-// estimated as nuisance parameters together with the model, so an imprecise fixture still calibrates.
+// Fixture+errors mode: the rate table's axis tilts and encoder zero offsets (and, on request, the IMU
+// mount rotation) are estimated as nuisance parameters together with the model, so an imprecise fixture
+// still calibrates. The reference is recomputed from the LOGGED (reported) table angles and rates with
+// sim::table_kinematics() — the simulator's own kinematics — for the current nuisance values.
+//
+// The problem is nonlinear in the nuisance parameters: Levenberg-Marquardt, each iteration one streaming
+// pass over the log (LogReader::rewind), memory independent of the log length. Per sample: one
+// kinematics + measurement per nuisance parameter and direction (central differences), one rank-one
+// update of the (n_model + n_nuisance)² information. Static dwells reuse the kinematics (angles constant).
+//
+// Gauge: a constant rotation of the IMU case on the platform (mount rotation; equally the zero offset of
+// the innermost axis when it is the case's own axis) is indistinguishable from a common rotation of both
+// triads' misalignments: no campaign separates them. Nuisance parameters found in an unobservable
+// direction of the information at the start are fixed at zero (reported in `fixed`); a direction with no
+// nuisance parameter in it is an error as in every other mode.
 #pragma once
 
 #include <string>
@@ -7,19 +20,30 @@
 
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
+#include "host/sim/campaign.h"
 #include "host/solver/fixture.h"
 
 namespace imuforge::solver {
 
+struct FixtureErrorsOptions {
+  bool mount = false;  // also estimate fixture.mount.rx|ry|rz (only separable without full misalignments)
+  int max_iterations = 20;
+};
+
 struct FixtureErrorsResult {
-  Estimate estimate;                       // model parameters, then nuisance parameters
+  Estimate estimate;                        // model parameters (spec order), then free nuisance parameters
   Observability observability;
   Sigma6 residual_rms{}, noise_sigma{};
   long long samples = 0;
-  std::vector<std::string> nuisance_names;  // fixture.axis<i>.tilt_a|tilt_b|zero, fixture.mount.rx|ry|rz
+  std::vector<std::string> nuisance_names;  // free: fixture.axis<i>.tilt_a|tilt_b|zero, fixture.mount.r*
+  std::vector<std::string> fixed;           // nuisance fixed at 0 by the gauge (see above)
   int iterations = 0;
 };
 
+FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& campaign,
+                                         const FixtureErrorsOptions& opt = {});
+// Convenience for the command: loads the campaign; "fixture_nuisance": {"mount": true} in the model's
+// extra section turns the mount rotation on.
 FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const std::string& campaign_path);
 
 }  // namespace imuforge::solver

@@ -33,7 +33,7 @@ static void reference(const Table& t, double T, const std::int32_t ra[3], const 
   const int n = t.n_breakpoints;
   const double b0 = static_cast<double>(t.breakpoints_degC[0]);
   const double bn = static_cast<double>(t.breakpoints_degC[n - 1]);
-  r->clamped = T < b0 || T > bn;
+  r->clamped = n > 1 && (T < b0 || T > bn);  // one breakpoint: temperature-independent, never clamped
   const double Tc = T < b0 ? b0 : (T > bn ? bn : T);
   int i = 0;
   while (i + 2 < n && Tc >= static_cast<double>(t.breakpoints_degC[i + 1])) ++i;
@@ -344,7 +344,37 @@ static void test_fixed_range() {
   FW_EXPECT_EQ_INT(kernel_q_run(&kq, &raw, 0, &q), kStatusNoTable);
 }
 
+// Degenerate but valid tables (C = 0, tiny G) must load without undefined shifts and give the model's
+// answer (here: zero), on both paths. UBSan (host-sanitize preset) watches the shift arithmetic.
+static void test_degenerate_table() {
+  Table t;
+  table_init_identity(&t, 16.0f * 9.80665f / 32768.0f, 2000.0f * fwtest::kPi / 180.0f / 32768.0f, 16, 16);
+  for (int m = 0; m < 9; ++m) {
+    t.coeffs[0].accel.C[m] = 0.0f;
+    t.coeffs[0].gyro.C[m] = 0.0f;
+    t.coeffs[0].G[m] = 1e-9f;
+  }
+  t.model_flags = kModelAccelMatrix | kModelGyroMatrix | kModelGyroGSens;
+  FW_EXPECT_EQ_INT(table_validate(&t), kTableOk);
+  KernelQ kq;
+  KernelF32 kf;
+  kernel_q_init(&kq, 0);
+  kernel_f32_init(&kf, 0.0f);
+  FW_EXPECT_EQ_INT(kernel_q_load(&kq, &t), 0);
+  FW_EXPECT_EQ_INT(kernel_f32_load(&kf, &t), 0);
+  const RawSample16 raw = {{32000, -32000, 100}, {-5, 5, 31000}};
+  ImuQ q;
+  ImuF32 f;
+  FW_EXPECT_EQ_INT(kernel_q_run(&kq, &raw, 25 * kQTempOne, &q), kStatusOk);
+  FW_EXPECT_EQ_INT(kernel_f32_run(&kf, &raw, 25.0f, &f), kStatusOk);
+  for (int k = 0; k < 3; ++k) {
+    FW_EXPECT(q.accel[k] == 0 && q.gyro[k] == 0);
+    FW_EXPECT(f.accel_mps2[k] == 0.0f && absd(static_cast<double>(f.gyro_rad_s[k])) < 1e-12);
+  }
+}
+
 int main() {
+  FW_RUN(test_degenerate_table);
   FW_RUN(test_accuracy);
   FW_RUN(test_status_and_no_table);
   FW_RUN(test_step_caching);

@@ -226,3 +226,59 @@ TEST(Simulate, TruthHoldsEveryParameterAndTheRealisedTurnOnBias) {
   EXPECT_TRUE(sum.truth["realised"].contains("gyro.turn_on_bias.z"));
   EXPECT_EQ(sum.truth["segments"].size(), static_cast<std::size_t>(sum.segments));
 }
+
+#include "host/sim/noise.h"
+
+namespace {
+double adev(const std::vector<double>& x, std::size_t m) {
+  const std::size_t K = x.size() / m;
+  std::vector<double> a(K);
+  for (std::size_t k = 0; k < K; ++k) {
+    double s = 0;
+    for (std::size_t i = 0; i < m; ++i) s += x[k * m + i];
+    a[k] = s / static_cast<double>(m);
+  }
+  double s2 = 0;
+  for (std::size_t k = 0; k + 1 < K; ++k) s2 += (a[k + 1] - a[k]) * (a[k + 1] - a[k]);
+  return std::sqrt(s2 / (2.0 * static_cast<double>(K - 1)));
+}
+}  // namespace
+
+TEST(Noise, BiasInstabilityAllanFloor) {
+  sim::Rng rng(11);
+  sim::AxisNoise n;
+  const double dt = 0.01, B = 2.0;
+  n.configure(0, B, 1.0, 0, dt, rng);
+  std::vector<double> x(1000000);
+  for (auto& v : x) v = n.step(rng);
+  for (double tau : {0.2, 1.0, 5.0}) EXPECT_NEAR(adev(x, static_cast<std::size_t>(tau / dt)), 0.664 * B, 0.12 * 0.664 * B) << tau;
+}
+
+TEST(Noise, RateRandomWalkAllanSlope) {
+  sim::Rng rng(12);
+  sim::AxisNoise n;
+  const double dt = 0.01, K = 0.5;
+  n.configure(0, 0, 0, K, dt, rng);
+  std::vector<double> x(1000000);
+  for (auto& v : x) v = n.step(rng);
+  // Allan deviation of a rate random walk: K·√(τ/3).
+  for (double tau : {1.0, 10.0}) EXPECT_NEAR(adev(x, static_cast<std::size_t>(tau / dt)), K * std::sqrt(tau / 3), 0.15 * K * std::sqrt(tau / 3)) << tau;
+}
+
+TEST(Simulate, FacesOfTheExampleTumbleAreWhatTheDocsSay) {
+  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
+  c.simulation = json::object();
+  sim::Timeline tl = sim::build_timeline(c);
+  std::vector<io::LogRow> rows = run(c, ideal_sensor(), 1);
+  const double g = sim::normal_gravity_mps2(sim::Site{c.latitude_deg, c.height_m});
+  int checked = 0;
+  for (const auto& s : tl.segments) {
+    if (s.kind != "position" || s.label.find(" az ") == std::string::npos) continue;
+    const auto& r = rows[static_cast<std::size_t>((s.t0 + s.t1) / 2 * c.sample_rate_hz)];
+    const int axis = s.label[1] - 'x';
+    const double sign = s.label.find("down") != std::string::npos ? -1.0 : 1.0;  // axis down: f points up = −axis
+    EXPECT_NEAR(r.f_ref[axis], sign * g, 1e-6) << s.label;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 12);
+}
