@@ -6,6 +6,7 @@
 
 #include "host/model/measure.h"
 #include "host/model/sensor_model.h"
+#include "host/sim/noise.h"
 
 #if defined(IMUFORGE_HAVE_VIMU)
 #include "host/vimu/virtual_imu.h"
@@ -31,10 +32,19 @@ struct ImuSampler::Impl {
   model::SensorModel m;
   model::CompiledTriad acc, gyr;
   model::HysteresisTracker hyst;
-  double t0_world = 0.0;
+  // Stochastic part, realised with the simulator's processes (host/sim/noise.h), one stream per channel.
+  sim::AxisNoise noise[6];
+  sim::Rng rng[6];
+  double turn_on[6] = {};
+  double q[6] = {}, sat[6] = {};
 };
 
-ImuSampler::ImuSampler(Bench& bench, const std::string& sensor_path, uint64_t /*seed*/) : impl_(std::make_unique<Impl>()) {
+namespace {
+// Nominal sample interval for the noise discretisation: the virtual IMU's 1 kHz sample clock.
+constexpr double kNoiseDt_s = 0.001;
+}  // namespace
+
+ImuSampler::ImuSampler(Bench& bench, const std::string& sensor_path, uint64_t seed) : impl_(std::make_unique<Impl>()) {
   impl_->bench = &bench;
   if (!sensor_path.empty()) {
     impl_->m = model::load_sensor_model(sensor_path);
@@ -42,6 +52,25 @@ ImuSampler::ImuSampler(Bench& bench, const std::string& sensor_path, uint64_t /*
     impl_->acc = model::compile(impl_->m, model::Sensor::kAccel);
     impl_->gyr = model::compile(impl_->m, model::Sensor::kGyro);
     impl_->hyst = model::HysteresisTracker(impl_->m.thermal.hysteresis_threshold_C);
+    const model::ParamSet P = impl_->m.effective_params();
+    sim::Rng rng_turn_on(seed * 0x9E3779B97F4A7C15ULL + 1);
+    for (int si = 0; si < 2; ++si) {
+      const auto sn = static_cast<model::Sensor>(si);
+      const auto wn = model::effect_params(sn, model::Effect::kWhiteNoise);
+      const auto bi = model::effect_params(sn, model::Effect::kBiasInstability);
+      const auto rw = model::effect_params(sn, model::Effect::kRateRandomWalk);
+      const auto tb = model::effect_params(sn, model::Effect::kTurnOnBias);
+      const auto qz = model::effect_params(sn, model::Effect::kQuantization);
+      const auto st = model::effect_params(sn, model::Effect::kSaturation);
+      for (size_t j = 0; j < 3; ++j) {
+        const int ch = 3 * si + static_cast<int>(j);
+        impl_->rng[ch].seed(seed * 0x9E3779B97F4A7C15ULL + 11 + static_cast<uint64_t>(ch));
+        impl_->noise[ch].configure(P[wn[j]], P[bi[j]], P[bi[3]], P[rw[j]], kNoiseDt_s, impl_->rng[ch]);
+        impl_->turn_on[ch] = P[tb[j]] * rng_turn_on.normal();
+        impl_->q[ch] = P[qz[j]];
+        impl_->sat[ch] = P[st[j]];
+      }
+    }
   }
 }
 
@@ -78,6 +107,15 @@ hal::ImuRawSample ImuSampler::sample(double t_s) {
     yg = model::measure(impl_->gyr, in);
     abits = impl_->m.triad(model::Sensor::kAccel).bits;
     gbits = impl_->m.triad(model::Sensor::kGyro).bits;
+  }
+  if (impl_->have_model) {
+    // Noise, turn-on bias, quantization step and saturation, in the simulator's order.
+    for (int ch = 0; ch < 6; ++ch) {
+      double& y = ch < 3 ? ya[ch] : yg[ch - 3];
+      y += impl_->turn_on[ch] + impl_->noise[ch].step(impl_->rng[ch]);
+      if (impl_->q[ch] > 0) y = impl_->q[ch] * std::round(y / impl_->q[ch]);
+      if (impl_->sat[ch] > 0) y = std::clamp(y, -impl_->sat[ch], impl_->sat[ch]);
+    }
   }
   hal::ImuRawSample s;
   for (int i = 0; i < 3; ++i) {

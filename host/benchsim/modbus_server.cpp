@@ -225,7 +225,12 @@ void ModbusServer::serve(void* vctx, const uint8_t* req, int len) {
   map.tab_input_registers = bank.registers();
 
   const uint8_t fc = req[off];
-  if (len < off + 5) return;
+  if (fc != MODBUS_FC_READ_HOLDING_REGISTERS && fc != MODBUS_FC_READ_INPUT_REGISTERS &&
+      fc != MODBUS_FC_WRITE_SINGLE_REGISTER && fc != MODBUS_FC_WRITE_MULTIPLE_REGISTERS) {
+    modbus_reply_exception(ctx, req, MODBUS_EXCEPTION_ILLEGAL_FUNCTION);
+    return;
+  }
+  if (len < off + 5) return;  // libmodbus checked the frame; a short one cannot reach here, but never read past it
   const uint16_t addr = static_cast<uint16_t>((req[off + 1] << 8) | req[off + 2]);
   std::vector<uint16_t> words;
   switch (fc) {

@@ -52,6 +52,11 @@ class SimWorld final : public World {
     setpoint_ = ramped_ = air_ = die_ = c.initial_C;
     ramp_ = std::min(c.ramp_C_per_min, c.max_ramp_C_per_min);
     axes_.resize(static_cast<size_t>(c.axes));
+    // Exact first-order discretisation for the fixed step (computed once: the world may take a million
+    // steps per wall second at a high time scale).
+    k_air_ = 1.0 - std::exp(-c.dt_s / c.chamber_tau_s);
+    k_die_ = 1.0 - std::exp(-c.dt_s / std::max(c.die_tau_s, 1e-9));
+    k_self_ = 1.0 - std::exp(-c.dt_s / std::max(c.self_heating_tau_s, 1e-9));
   }
 
   double time_s() const override { return t_; }
@@ -161,11 +166,11 @@ class SimWorld final : public World {
     const double target = running_ ? setpoint_ : cfg_.initial_C;
     const double max_step = ramp_ / 60.0 * dt;
     ramped_ += std::clamp(target - ramped_, -max_step, max_step);
-    air_ += (ramped_ - air_) * (1.0 - std::exp(-dt / cfg_.chamber_tau_s));
+    air_ += (ramped_ - air_) * k_air_;
     // Die: lags the air; self-heating rises after power-up.
     const double die0 = die_ + self_heat_;
-    die_ += (air_ - die_) * (1.0 - std::exp(-dt / cfg_.die_tau_s));
-    self_heat_ += (cfg_.self_heating_C - self_heat_) * (1.0 - std::exp(-dt / cfg_.self_heating_tau_s));
+    die_ += (air_ - die_) * k_die_;
+    self_heat_ += (cfg_.self_heating_C - self_heat_) * k_self_;
     die_rate_ = (die_ + self_heat_ - die0) / dt;
     t_ += dt;
   }
@@ -177,6 +182,7 @@ class SimWorld final : public World {
   double t_ = 0.0;
   double setpoint_, ramped_, air_, die_, ramp_;
   double self_heat_ = 0.0, die_rate_ = 0.0;
+  double k_air_ = 0.0, k_die_ = 0.0, k_self_ = 0.0;
   bool running_ = true;
 };
 

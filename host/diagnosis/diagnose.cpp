@@ -593,6 +593,19 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     }
   }
 
+  if (p1.n_units < 3) {
+    // Nothing can be withheld: only the noise analysis stands.
+    R.warnings.push_back("only " + std::to_string(p1.n_units) + " segment(s): nothing can be withheld, so no effect can be scored "
+                         "(too short to tell); only the Allan-deviation noise analysis is reported");
+    for (int a = 0; a < kNumAxes; ++a) {
+      const auto u = static_cast<std::size_t>(a);
+      R.gap_before.gap[u] = R.gap_before.rms[u] = R.gap_before.floor[u] = R.gap_before.chi2_dof[u] = kNaN;
+    }
+    R.gap_after = R.gap_before;
+    for (const Block& b : blocks) R.n_static_blocks += b.is_static ? 1 : 0;
+    return R;
+  }
+
   // ---- Folds: whole units (contiguous segments), or whole temperature plateaus.
   std::vector<double> plateau_T;
   {

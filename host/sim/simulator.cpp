@@ -193,7 +193,9 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
   double sp_target = c.initial_C, sp_slew = 0;
   model::HysteresisTracker hyst(th.hysteresis_threshold_C);
 
-  const std::uint64_t n_rows = static_cast<std::uint64_t>(std::floor(tl.duration_s * fs + 1e-9));
+  double sim_s = tl.duration_s;
+  if (opt.max_duration_s > 0) sim_s = std::min(sim_s, opt.max_duration_s);
+  const std::uint64_t n_rows = static_cast<std::uint64_t>(std::floor(sim_s * fs + 1e-9));
   std::size_t cur_true = 0, cur_a = 0, cur_g = 0;
   io::LogRow row;
   model::MeasureInput in;
@@ -281,7 +283,7 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
 
   SimSummary sum;
   sum.rows = n_rows;
-  sum.duration_s = tl.duration_s;
+  sum.duration_s = static_cast<double>(n_rows) / fs;
   sum.segments = static_cast<int>(tl.segments.size());
   json params = json::object();
   for (const auto& p : model::params()) params[p.name] = P[p.id];
@@ -322,7 +324,7 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
                             {"hysteresis_threshold_C", th.hysteresis_threshold_C}}},
                {"segments", segs},
                {"rows", n_rows},
-               {"duration_s", tl.duration_s}};
+               {"duration_s", sum.duration_s}};
   return sum;
 }
 

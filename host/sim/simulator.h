@@ -20,6 +20,7 @@ struct SimOptions {
   std::string serial = "SIM-0001";
   // Fixture errors and encoder noise; defaults come from the campaign's "simulation" block.
   bool use_campaign_fixture_errors = true;
+  double max_duration_s = 0.0;      // > 0: stop after this much simulated time (benchmarks, previews)
 };
 
 struct SimSummary {

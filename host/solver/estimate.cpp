@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <numeric>
 
@@ -218,6 +219,9 @@ LmResult levenberg_marquardt(const NonlinearProblem& problem, Eigen::VectorXd th
       Eigen::VectorXd cand = theta + step;
       NormalEquations ne_c(n);
       problem.linearize(cand, ne_c);
+      if (std::getenv("IMUFORGE_LM_DEBUG"))
+        std::fprintf(stderr, "LM it %d try %d lambda %.3g cost %.10g -> %.10g step_sq %.3g\n", it, tries, l, ne.cost,
+                     ne_c.cost, step_sq);
       if (std::isfinite(ne_c.cost) && ne_c.cost <= ne.cost * (1 + 1e-12) + 1e-300) {
         theta = cand;
         ne = ne_c;

@@ -1,6 +1,8 @@
 #include "host/solver/fixture_errors.h"
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "host/model/measure.h"
 #include "host/sim/earth.h"
@@ -207,7 +209,12 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
     std::vector<std::string> names;
     for (model::ParamId id : spec.parameters()) names.push_back(model::param_info(id).name);
     for (const auto& n : nu) names.push_back(n.name);
-    const Observability obs = analyse_observability(ne.info, names);
+    const Observability obs = analyse_observability(ne.info, names, opt.gauge_tolerance);
+    if (std::getenv("IMUFORGE_LM_DEBUG")) {
+      std::fprintf(stderr, "fixture+errors gauge round %d: rank %d/%d cond %.3g\n", round, obs.rank, prob.num_params(),
+                   obs.condition_number);
+      for (const auto& u : obs.unobservable) std::fprintf(stderr, "  null: %s\n", u.c_str());
+    }
     if (obs.rank == prob.num_params()) break;
     // The scaled null vectors: fix the nuisance parameter with the largest weight in the first one.
     const Eigen::VectorXd d = ne.info.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
@@ -232,6 +239,8 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
   x0.head(nm) = theta0;
   LmOptions lo;
   lo.max_iterations = opt.max_iterations;
+  // Central differences leave ~1e-5 σ of Jacobian noise: ask for steps below 1e-4 σ, not rounding level.
+  lo.step_tolerance_sq = 1e-8;
   const LmResult lm = levenberg_marquardt(prob, x0, lo);
   if (!lm.converged) throw SolverError("fixture+errors: Levenberg-Marquardt did not converge in " +
                                        std::to_string(lm.iterations) + " iterations");

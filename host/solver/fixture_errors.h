@@ -28,6 +28,11 @@ namespace imuforge::solver {
 struct FixtureErrorsOptions {
   bool mount = false;  // also estimate fixture.mount.rx|ry|rz (only separable without full misalignments)
   int max_iterations = 20;
+  // Scaled-information eigenvalue (relative to the largest) below which a direction counts as
+  // unobservable when choosing which nuisance parameters to fix. Looser than the rank test of the final
+  // solve: tilts of the inner axis are equivalent, to first order, to a mount rotation plus a zero offset
+  // of the next axis, and are separable only through second-order terms (variance inflation > 100²).
+  double gauge_tolerance = 1e-4;
 };
 
 struct FixtureErrorsResult {

@@ -148,7 +148,9 @@ AccelFit fit_accel(const std::vector<StaticInterval>& iv, double g, const std::v
   for (int k = 0, a = 0; k < 9; ++k)
     if (active[static_cast<size_t>(k)]) step[a++] = k < 3 ? 1e-6 : 1e-7;
   ResidualProblem prob(na, f, step);
-  LmResult r = levenberg_marquardt(prob, Eigen::VectorXd::Zero(na));
+  LmOptions lo;
+  lo.step_tolerance_sq = 1e-10;  // numeric Jacobian: stop at 1e-5 σ steps
+  LmResult r = levenberg_marquardt(prob, Eigen::VectorXd::Zero(na), lo);
   AccelFit out;
   out.p = full(r.theta);
   const Eigen::VectorXd e = prob.residual(r.theta);
@@ -383,7 +385,9 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
   res.rotation_rms_before = rms(gres(Eigen::VectorXd::Zero(ng)));
   if (ng > 0) {
     ResidualProblem gp(ng, gres, Eigen::VectorXd::Constant(ng, 1e-6));
-    LmResult r = levenberg_marquardt(gp, Eigen::VectorXd::Zero(ng));
+    LmOptions lo;
+    lo.step_tolerance_sq = 1e-10;
+    LmResult r = levenberg_marquardt(gp, Eigen::VectorXd::Zero(ng), lo);
     gtheta = r.theta;
     const Eigen::VectorXd e = gp.residual(gtheta);
     const int dof = static_cast<int>(e.size()) - ng;

@@ -325,3 +325,55 @@ TEST(ModbusDriver, ServerDiesDuringACommandWhichLandsExactlyOnce) {
   ASSERT_TRUE(t->wait_settled(1, 30.0));
   EXPECT_NEAR(t->status(1).angle_deg, -60.0, 1e-4);
 }
+
+// A compressed end-of-line-like campaign through the drivers only: three temperature plateaus, a
+// 12-position tumble and a CW/CCW rate pair at each, dwells timed on the fixture clock. Prints the
+// simulated and wall durations (a figure, not an assertion on wall time).
+TEST(ModbusDriver, AcceleratedCampaignOnTheFixtureClock) {
+  Lab lab(1000.0, "imuforge-chamber.json", false);
+  auto tc = lab.cfg("table-1", "imuforge-table.json");
+  auto cc = lab.cfg("chamber-1", "imuforge-chamber.json");
+  cc.limits.max_ramp_degC_min = 5.0;
+  auto t = fixture::open_rate_table(tc);
+  auto c = fixture::open_chamber(cc);
+  const auto wall0 = std::chrono::steady_clock::now();
+  const double sim0 = t->fixture_time_s();
+  auto dwell = [&](double s) {
+    const double until = t->fixture_time_s() + s;
+    while (t->fixture_time_s() < until) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  };
+  double dwelt_s = 0;
+  c->set_ramp(5.0);
+  for (double plateau : {45.0, 5.0, 25.0}) {
+    c->set_setpoint(plateau);
+    for (int i = 0; i < 2000; ++i) {  // bounded: 2000 polls of >= 2 ms
+      const auto s = c->status();
+      if (*s.at_setpoint && std::fabs(s.air_degC - plateau) < 0.05) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    ASSERT_NEAR(c->status().air_degC, plateau, 0.05);
+    for (int k = 0; k < 12; ++k) {
+      t->command_position(0, 90.0 * (k % 4));
+      t->command_position(1, 90.0 * (k / 4));
+      ASSERT_TRUE(t->wait_settled(0, 30.0, 0.002));
+      ASSERT_TRUE(t->wait_settled(1, 30.0, 0.002));
+      dwell(30.0);
+      dwelt_s += 30.0;
+    }
+    for (double r : {100.0, -100.0}) {
+      t->command_rate(2, r);
+      ASSERT_TRUE(t->wait_settled(2, 30.0, 0.002));
+      EXPECT_NEAR(t->status(2).rate_deg_s, r, 1e-4);
+      dwell(60.0);
+      dwelt_s += 60.0;
+    }
+    t->stop(2);
+  }
+  const double sim_s = t->fixture_time_s() - sim0;
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  EXPECT_GE(sim_s, dwelt_s);
+  std::printf("[figure] accelerated campaign: %.0f s simulated (%.0f s of dwell) in %.1f s wall, time scale 1000, "
+              "%llu Modbus requests\n",
+              sim_s, dwelt_s, wall_s, static_cast<unsigned long long>(lab.server->requests()));
+  EXPECT_EQ(t->stats().resent + c->stats().resent, 0u);
+}

@@ -41,7 +41,7 @@ int main(int argc, char** argv) {
   c["phases"].push_back({{"type", "plateau"}, {"setpoint_C", 25}, {"soak_s", 0}, {"steps", steps}});
   sim::Campaign base = sim::campaign_from_json(c);
   const double one = sim::Campaign(base).nominal_duration_s();
-  int reps = std::max(1, static_cast<int>(hours * 3600 / one));
+  int reps = std::max(1, static_cast<int>(hours * 3600 / one) + 1);
   c["phases"] = json::array();
   for (int i = 0; i < reps; ++i)
     c["phases"].push_back({{"type", "plateau"}, {"setpoint_C", 25 + (i % 2) * 10}, {"soak_s", 0}, {"steps", steps}});
@@ -56,6 +56,7 @@ int main(int argc, char** argv) {
   sim::Campaign camp = sim::campaign_from_json(c);
   sim::SimOptions opt;
   opt.seed = 1;
+  opt.max_duration_s = hours * 3600;
   const auto t0 = std::chrono::steady_clock::now();
   const std::clock_t c0 = std::clock();
   io::LogWriter w(out, sim::make_log_meta(camp, m, opt), io::LogEncoding::kBinary);
