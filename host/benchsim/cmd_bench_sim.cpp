@@ -124,6 +124,11 @@ int run_bench_sim(int argc, char** argv) {
   const auto t_end = std::chrono::steady_clock::now() + std::chrono::duration<double>(duration_s);
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    {
+      // Keep the world close to "now" so a request after a long quiet spell does not pay for all of it.
+      std::lock_guard<std::mutex> lock(bench->mutex());
+      bench->sync();
+    }
     if (duration_s > 0 && std::chrono::steady_clock::now() >= t_end) break;
   }
   if (imu) imu->stop();

@@ -602,6 +602,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       R.gap_before.gap[u] = R.gap_before.rms[u] = R.gap_before.floor[u] = R.gap_before.chi2_dof[u] = kNaN;
     }
     R.gap_after = R.gap_before;
+    R.cv_mode = "none";
     for (const Block& b : blocks) R.n_static_blocks += b.is_static ? 1 : 0;
     return R;
   }

@@ -374,7 +374,7 @@ RunResult Runner::run() {
   // Waits, from the IMU's own temperature, until the plateau is reached and settled.
   auto settle_temperature = [&](int phase, double setpoint_C) {
     SlopeSettleDetector det(st.settle_window_s, st.settle_slope_C_per_min / 60.0);
-    double t_first = NAN, next_check = 0, air = NAN;
+    double t_first = NAN, next_check = 0, next_report = 0, air = NAN;
     bool ok = false, timeout = false;
     peer("stream (settling)", [&] {
       return dev_.stream(st.stream_rate_hz, [&](const ImuSample& s) {
@@ -387,8 +387,14 @@ RunResult Runner::run() {
           double rc = run_clock();
           rd.imu_temp_C.push_back({rc, s.temp_C});
           rd.chamber_temp_C.push_back({rc, air});
-          if (det.settled() && std::fabs(air - setpoint_C) <= st.settle_band_C &&
-              std::fabs(det.mean() - air) <= st.settle_band_C) {
+          if (opt_.progress && el >= next_report) {
+            next_report = el + 60.0;
+            std::fprintf(opt_.progress, "  settling p%d %+.1fC: IMU %.2f C, slope %+.3f C/min over %.0f s, chamber %.2f C\n",
+                         phase + 1, setpoint_C, s.temp_C, det.slope_per_s() * 60, det.span_s(), air);
+            std::fflush(opt_.progress);
+          }
+          // The die's offset from the air (self-heating) is the part's own: only its slope matters.
+          if (det.settled() && std::fabs(air - setpoint_C) <= st.settle_band_C) {
             ok = true;
             return false;
           }

@@ -19,7 +19,7 @@ int run_simulate(int argc, char** argv) {
                "imuforge simulate"};
   std::string campaign_path, sensor_path, out_path, truth_path, format = "auto", serial = "SIM-0001";
   std::uint64_t seed = 1;
-  double rate_hz = 0;
+  double rate_hz = 0, max_s = 0;
   bool no_fixture_errors = false, quiet = false;
   app.add_option("--campaign", campaign_path, "campaign JSON (docs/formats.md)")->required();
   app.add_option("--sensor", sensor_path, "sensor model JSON")->required();
@@ -27,6 +27,7 @@ int run_simulate(int argc, char** argv) {
   app.add_option("--out", out_path, "output log (.csv or .bin)")->required();
   app.add_option("--truth", truth_path, "write the true parameters, realised turn-on bias, fixture errors, segments");
   app.add_option("--rate", rate_hz, "sample rate Hz (default: the campaign's)")->check(CLI::PositiveNumber);
+  app.add_option("--max-duration", max_s, "stop after this many simulated seconds")->check(CLI::PositiveNumber);
   app.add_option("--format", format, "auto|csv|bin")->check(CLI::IsMember({"auto", "csv", "bin"}));
   app.add_option("--serial", serial, "serial written to the log metadata");
   app.add_flag("--no-fixture-errors", no_fixture_errors, "ignore the campaign's simulated fixture errors");
@@ -51,6 +52,7 @@ int run_simulate(int argc, char** argv) {
   opt.sample_rate_hz = rate_hz;
   opt.serial = serial;
   opt.use_campaign_fixture_errors = !no_fixture_errors;
+  opt.max_duration_s = max_s;
   io::LogEncoding enc = format == "csv" ? io::LogEncoding::kCsv
                         : format == "bin" ? io::LogEncoding::kBinary
                                           : io::LogEncoding::kAuto;

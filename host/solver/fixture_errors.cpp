@@ -216,17 +216,15 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
       for (const auto& u : obs.unobservable) std::fprintf(stderr, "  null: %s\n", u.c_str());
     }
     if (obs.rank == prob.num_params()) break;
-    // The scaled null vectors: fix the nuisance parameter with the largest weight in the first one.
+    // The most nearly unobservable direction of the scaled information:
     const Eigen::VectorXd d = ne.info.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(d.asDiagonal() * ne.info * d.asDiagonal());
     const Eigen::VectorXd v = es.eigenvectors().col(0);
+    // Of the nuisance parameters in that direction, fix the innermost one: the inner axis's zero and
+    // tilts are the ones equivalent to a mount rotation, so fixing them first leaves the outer axes free.
     int best = -1;
-    double bw = 0.05;
-    for (int k = 0; k < static_cast<int>(nu.size()); ++k)
-      if (std::abs(v[nm + k]) > bw) {
-        bw = std::abs(v[nm + k]);
-        best = k;
-      }
+    for (int k = 0; k < static_cast<int>(nu.size()) && best < 0; ++k)
+      if (std::abs(v[nm + k]) > 0.05) best = k;
     if (best < 0) {
       // No nuisance parameter involved: a genuine deficiency of the model/campaign; report it by name.
       covariance_from_information(ne.info, names);

@@ -1,11 +1,19 @@
 #include "host/solver/table_out.h"
 
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+#include "host/table/host_kernel.h"
+#include "host/table/table_writer.h"
+
 namespace imuforge::solver {
 
 nlohmann::json TableReport::to_json() const {
   nlohmann::json j;
   j["ok"] = ok;
   j["bytes"] = bytes;
+  j["breakpoints_C"] = breakpoints_C;
   j["samples_checked"] = samples;
   j["quantisation_rms"] = rms_diff;
   j["quantisation_over_noise"] = ratio;
@@ -15,8 +23,185 @@ nlohmann::json TableReport::to_json() const {
   return j;
 }
 
-TableReport write_coefficient_table(const CalibrationResult&, io::LogReader&, const std::string&, const std::string&) {
-  throw SolverError("coefficient table: the host table writer (host/table/) is not available in this build yet");
+namespace {
+const char* kAx = "xyz";
+
+// The calibrated sensor model at one temperature: b(T), M(T) per triad, from polynomial or per-plateau
+// parameters. Throws for parameters the table cannot express.
+struct TriadAt {
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+};
+
+void check_expressible(const Estimate& e) {
+  for (const auto& n : e.names) {
+    const std::string base = n.substr(0, n.find('@'));
+    const bool ok = base.find(".bias.") != std::string::npos || base.find(".scale.") != std::string::npos ||
+                    base.find(".misalign.") != std::string::npos || base.find(".bias_temp.") != std::string::npos ||
+                    base.find(".scale_temp.") != std::string::npos || base.find(".misalign_temp.") != std::string::npos ||
+                    base.rfind("fixture.", 0) == 0;
+    if (!ok) throw SolverError("coefficient table v1 holds bias, scale, misalignment and their temperature dependence; "
+                               "it cannot express " + n);
+  }
+}
+
+TriadAt triad_at(const Estimate& e, const std::string& s, double T_C, double T_ref_C, int plateau) {
+  TriadAt t;
+  const double tau = T_C - T_ref_C;
+  auto get = [&](const std::string& name, double& out) {
+    int i = e.index_of(name);
+    if (i < 0 && plateau >= 0) i = e.index_of(name + "@plateau" + std::to_string(plateau));
+    if (i >= 0) out = e.value[i];
+    return i >= 0;
+  };
+  for (int j = 0; j < 3; ++j) {
+    double v = 0;
+    if (get(s + ".bias." + kAx[j], v)) t.b[j] += v;
+    if (get(s + ".scale." + kAx[j], v)) t.M(j, j) += v;
+    for (int p = 1; p <= 3; ++p) {
+      const double tp = std::pow(tau, p);
+      if (get(s + ".bias_temp." + kAx[j] + ".t" + std::to_string(p), v)) t.b[j] += v * tp;
+      if (get(s + ".scale_temp." + kAx[j] + ".t" + std::to_string(p), v)) t.M(j, j) += v * tp;
+    }
+    for (int k = 0; k < 3; ++k) {
+      if (k == j) continue;
+      const std::string c = std::string(1, kAx[j]) + kAx[k];
+      if (get(s + ".misalign." + c, v)) t.M(j, k) += v;
+      for (int p = 1; p <= 3; ++p)
+        if (get(s + ".misalign_temp." + c + ".t" + std::to_string(p), v)) t.M(j, k) += v * std::pow(tau, p);
+    }
+  }
+  return t;
+}
+}  // namespace
+
+TableReport write_coefficient_table(const CalibrationResult& res, io::LogReader& log, const std::string& path,
+                                    const std::string& serial) {
+  const Estimate& e = res.estimate;
+  check_expressible(e);
+  char* end = nullptr;
+  const unsigned long long ser = std::strtoull(serial.c_str(), &end, 10);
+  if (serial.empty() || *end != '\0') throw SolverError("--serial must be a decimal device serial, got '" + serial + "'");
+  // Pass 1: temperature span and raw word width of the log.
+  log.rewind();
+  io::LogRow row;
+  double tmin = std::numeric_limits<double>::infinity(), tmax = -tmin;
+  std::int64_t max_raw = 0;
+  while (log.next(row)) {
+    if (std::isfinite(row.temp_C)) {
+      tmin = std::min(tmin, row.temp_C);
+      tmax = std::max(tmax, row.temp_C);
+    }
+    for (int c = 0; c < 6; ++c) max_raw = std::max<std::int64_t>(max_raw, std::llabs(static_cast<long long>(row.raw[c])));
+  }
+  bool per_plateau = false;
+  for (const auto& n : e.names) per_plateau = per_plateau || n.find("@plateau") != std::string::npos;
+  table::TableSpec spec;
+  spec.device_serial = ser;
+  spec.table_sequence = 1;
+  spec.accel_lsb_mps2 = log.meta().accel_lsb_mps2;
+  spec.gyro_lsb_rad_s = log.meta().gyro_lsb_rad_s;
+  const int bits = max_raw < 32768 ? 16 : max_raw < (1 << 19) ? 20 : 24;
+  spec.accel_raw_bits = spec.gyro_raw_bits = bits;
+  spec.kind = table::SpecKind::kSensorModel;
+  std::vector<double> bps;
+  std::vector<int> bp_plateau;
+  if (per_plateau) {
+    const auto it = res.extra.find("plateaus");
+    if (it == res.extra.end()) throw SolverError("per-plateau estimate without plateau temperatures");
+    int p = 0;
+    for (const auto& pl : *it) {
+      bps.push_back(pl["T_C"].get<double>());
+      bp_plateau.push_back(p++);
+    }
+    if (bps.size() > 16) throw SolverError("more than 16 plateaus: table v1 holds at most 16 breakpoints");
+  } else if (!std::isfinite(tmin) || tmax - tmin < 0.5) {
+    bps.push_back(std::isfinite(tmin) ? 0.5 * (tmin + tmax) : res.T_ref_C);
+    bp_plateau.push_back(-1);
+  } else {
+    // 16 breakpoints over the calibrated span: linear interpolation of a cubic over ≤ 1/15 of the span.
+    for (int i = 0; i < 16; ++i) {
+      bps.push_back(tmin + (tmax - tmin) * i / 15.0);
+      bp_plateau.push_back(-1);
+    }
+  }
+  std::vector<TriadAt> ref_a, ref_g;
+  for (size_t i = 0; i < bps.size(); ++i) {
+    table::BreakpointSpec b;
+    b.temp_degC = bps[i];
+    const TriadAt a = triad_at(e, "accel", bps[i], res.T_ref_C, bp_plateau[i]);
+    const TriadAt g = triad_at(e, "gyro", bps[i], res.T_ref_C, bp_plateau[i]);
+    b.accel_M = a.M;
+    b.accel_b = a.b;
+    b.gyro_M = g.M;
+    b.gyro_b = g.b;
+    spec.breakpoints.push_back(b);
+  }
+  std::vector<std::uint8_t> bytes;
+  fw::Table tbl;
+  try {
+    tbl = table::build_table(spec);
+    bytes = table::serialize_table(tbl);
+    table::write_table_file(path, bytes);
+  } catch (const table::TableError& ex) {
+    throw SolverError(std::string("coefficient table: ") + ex.what());
+  }
+  // Pass 2: the firmware kernel (f32 path, the host build of the MCU source) against the double-precision
+  // inverse of the calibrated model on every logged sample.
+  TableReport rep;
+  rep.bytes = bytes.size();
+  rep.breakpoints_C = bps;
+  table::HostKernel k(tbl, table::KernelPath::kF32, 0.0);
+  log.rewind();
+  std::array<double, 6> ss{};
+  while (log.next(row)) {
+    const double T = std::isfinite(row.temp_C) ? std::min(std::max(row.temp_C, bps.front()), bps.back()) : bps.front();
+    const table::CompensatedSample out = k.run(row.raw, row.temp_C);
+    int plateau = -1;
+    if (per_plateau) {  // the table interpolates between plateaus; so does the reference
+      size_t i = 0;
+      while (i + 1 < bps.size() && bps[i + 1] < T) ++i;
+      const size_t i1 = std::min(i + 1, bps.size() - 1);
+      const double w = i1 == i ? 0.0 : (T - bps[i]) / (bps[i1] - bps[i]);
+      const TriadAt a0 = triad_at(e, "accel", bps[i], res.T_ref_C, static_cast<int>(i));
+      const TriadAt a1 = triad_at(e, "accel", bps[i1], res.T_ref_C, static_cast<int>(i1));
+      const TriadAt g0 = triad_at(e, "gyro", bps[i], res.T_ref_C, static_cast<int>(i));
+      const TriadAt g1 = triad_at(e, "gyro", bps[i1], res.T_ref_C, static_cast<int>(i1));
+      const Eigen::Matrix3d Ca = (1 - w) * (Eigen::Matrix3d::Identity() + a0.M).inverse() + w * (Eigen::Matrix3d::Identity() + a1.M).inverse();
+      const Eigen::Matrix3d Cg = (1 - w) * (Eigen::Matrix3d::Identity() + g0.M).inverse() + w * (Eigen::Matrix3d::Identity() + g1.M).inverse();
+      const Eigen::Vector3d ba = (1 - w) * a0.b + w * a1.b, bg = (1 - w) * g0.b + w * g1.b;
+      const Eigen::Vector3d ya(row.raw[0] * spec.accel_lsb_mps2, row.raw[1] * spec.accel_lsb_mps2, row.raw[2] * spec.accel_lsb_mps2);
+      const Eigen::Vector3d yg(row.raw[3] * spec.gyro_lsb_rad_s, row.raw[4] * spec.gyro_lsb_rad_s, row.raw[5] * spec.gyro_lsb_rad_s);
+      const Eigen::Vector3d fa = Ca * (ya - ba), wg = Cg * (yg - bg);
+      for (int c = 0; c < 3; ++c) {
+        ss[static_cast<size_t>(c)] += std::pow(out.accel_mps2[c] - fa[c], 2);
+        ss[static_cast<size_t>(3 + c)] += std::pow(out.gyro_rad_s[c] - wg[c], 2);
+      }
+    } else {
+      const TriadAt a = triad_at(e, "accel", T, res.T_ref_C, plateau), g = triad_at(e, "gyro", T, res.T_ref_C, plateau);
+      const Eigen::Vector3d ya(row.raw[0] * spec.accel_lsb_mps2, row.raw[1] * spec.accel_lsb_mps2, row.raw[2] * spec.accel_lsb_mps2);
+      const Eigen::Vector3d yg(row.raw[3] * spec.gyro_lsb_rad_s, row.raw[4] * spec.gyro_lsb_rad_s, row.raw[5] * spec.gyro_lsb_rad_s);
+      const Eigen::Vector3d fa = (Eigen::Matrix3d::Identity() + a.M).lu().solve(ya - a.b);
+      const Eigen::Vector3d wg = (Eigen::Matrix3d::Identity() + g.M).lu().solve(yg - g.b);
+      for (int c = 0; c < 3; ++c) {
+        ss[static_cast<size_t>(c)] += std::pow(out.accel_mps2[c] - fa[c], 2);
+        ss[static_cast<size_t>(3 + c)] += std::pow(out.gyro_rad_s[c] - wg[c], 2);
+      }
+    }
+    ++rep.samples;
+  }
+  rep.ok = rep.samples > 0;
+  for (int c = 0; c < 6; ++c) {
+    rep.rms_diff[static_cast<size_t>(c)] = rep.samples ? std::sqrt(ss[static_cast<size_t>(c)] / static_cast<double>(rep.samples)) : 0.0;
+    const double sig = res.noise_sigma[static_cast<size_t>(c)];
+    rep.ratio[static_cast<size_t>(c)] = sig > 0 ? rep.rms_diff[static_cast<size_t>(c)] / sig : std::numeric_limits<double>::infinity();
+    if (rep.ratio[static_cast<size_t>(c)] >= rep.worst_ratio) {
+      rep.worst_ratio = rep.ratio[static_cast<size_t>(c)];
+      rep.worst_channel = channel_name(c);
+    }
+  }
+  rep.ok = rep.ok && rep.worst_ratio < 0.1;
+  return rep;
 }
 
 }  // namespace imuforge::solver

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -17,6 +18,7 @@ namespace imuforge::solver {
 struct TableReport {
   bool ok = false;
   std::size_t bytes = 0;
+  std::vector<double> breakpoints_C;
   std::array<double, 6> rms_diff{};   // RMS (kernel − double) per channel, SI
   std::array<double, 6> ratio{};      // rms_diff / noise σ
   double worst_ratio = 0.0;

@@ -21,12 +21,12 @@ namespace {
 const std::string kVimu = std::string(IMUFORGE_BINARY_DIR) + "/bin/imuforge-vimu";
 const std::string kTool = IMUFORGE_BIN;
 
-struct Run {
+struct CmdResult {
   int rc;
   std::string out;
 };
-Run sh(const std::string& cmd) {
-  Run r{-1, ""};
+CmdResult sh(const std::string& cmd) {
+  CmdResult r{-1, ""};
   FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
   if (p == nullptr) return r;
   char buf[512];
@@ -62,7 +62,7 @@ TEST(CanCli, VimuProcessAndImuforgeCan) {
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const std::string base = kTool + " can --bus " + bus + " --node 4 ";
 
-  Run r = sh(base + "identify");
+  CmdResult r = sh(base + "identify");
   EXPECT_EQ(r.rc, 0) << r.out;
   EXPECT_NE(r.out.find("serial 31337"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("table none"), std::string::npos) << r.out;

@@ -15,6 +15,11 @@
 #include "host/benchsim/modbus_server.h"
 #include "host/fixture/fixture.h"
 
+#include <unistd.h>
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
 using namespace imuforge;
 using fixture::FixtureConfig;
 using fixture::FixtureError;
@@ -376,4 +381,64 @@ TEST(ModbusDriver, AcceleratedCampaignOnTheFixtureClock) {
               "%llu Modbus requests\n",
               sim_s, dwelt_s, wall_s, static_cast<unsigned long long>(lab.server->requests()));
   EXPECT_EQ(t->stats().resent + c->stats().resent, 0u);
+}
+
+// A lab's own table map with an acceleration-limit register: the driver brings it within the station
+// limit before the first command. The station example file parses as the runner will read it.
+TEST(ModbusDriver, AccelLimitRegisterAndStationExample) {
+  const std::string map = R"({"format":"imuforge-modbus-map","format_version":1,"model":"lab-2axis","kind":"rate_table",
+    "axes":2,"axis_stride":20,"points":[
+    {"name":"mode","address":100,"type":"u16","access":"rw","per_axis":true,"min":0,"max":2},
+    {"name":"command","address":101,"type":"f32","unit":"deg","access":"rw","per_axis":true},
+    {"name":"angle","address":105,"type":"f32","per_axis":true},
+    {"name":"rate","address":107,"type":"f32","per_axis":true},
+    {"name":"status","address":109,"type":"bits","per_axis":true,"bits":{"in_position":0,"settled":1,"fault":3}},
+    {"name":"accel","address":110,"type":"u16","unit":"deg/s^2","access":"rw","per_axis":true}]})";
+  const std::string path = "/tmp/imuforge-modbus-lab-map-" + std::to_string(getpid()) + ".json";
+  {
+    FILE* f = std::fopen(path.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs(map.c_str(), f);
+    std::fclose(f);
+  }
+  benchsim::WorldConfig wc;
+  wc.axes = 2;
+  wc.settle_s = 0.2;
+  benchsim::RegisterBank bank(fixture::RegisterMap::load(path), fixture::RegisterMap::load(map_path("imuforge-chamber.json")));
+  benchsim::Bench bench(benchsim::make_sim_world(wc), std::move(bank), 100.0);
+  benchsim::ServerOptions so;
+  so.tcp_port = 0;
+  benchsim::ModbusServer server(bench, so);
+  server.start();
+  FixtureConfig c;
+  c.name = "lab-table";
+  c.map_path = path;
+  c.link.port = server.tcp_port();
+  c.limits.max_accel_deg_s2 = 200.0;
+  auto t = fixture::open_rate_table(c);
+  std::vector<std::string> notices;
+  t->set_notice_handler([&](const std::string& s) { notices.push_back(s); });
+  t->command_position(1, 33.0);  // no cmd_seq in this map: mode, then command
+  ASSERT_TRUE(t->wait_settled(1, 30.0));
+  EXPECT_NEAR(t->status(1).angle_deg, 33.0, 1e-4);
+  fixture::ModbusLink raw("probe", c.link);
+  EXPECT_EQ(raw.read(130, 1, "axis1.accel")[0], 200);
+  ASSERT_FALSE(notices.empty());
+  EXPECT_TRUE(contains(notices[0], "acceleration limit"));
+  std::remove(path.c_str());
+
+  // docs/examples/station.json (the runner's example) parses with the shipped maps.
+  FILE* f = std::fopen((std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/station.json").c_str(), "r");
+  if (f) {
+    std::string text;
+    char buf[4096];
+    size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) text.append(buf, n);
+    std::fclose(f);
+    const auto j = nlohmann::json::parse(text);
+    const auto tc = fixture::fixture_config_from_json(j["fixtures"]["table"], IMUFORGE_SOURCE_DIR "/docs/examples");
+    const auto cc = fixture::fixture_config_from_json(j["fixtures"]["chamber"], IMUFORGE_SOURCE_DIR "/docs/examples");
+    EXPECT_EQ(tc.limits.max_accel_deg_s2, 1000.0);
+    EXPECT_NE(cc.map_path.find("watlow-f4.json"), std::string::npos);
+  }
 }
