@@ -164,6 +164,7 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
 
   std::array<std::vector<double>, kNumAxes> run_series;
   int run_unit = -1;
+  double run_Tmin = 1e300, run_Tmax = -1e300;
   auto flush_run = [&]() {
     for (int a = 0; a < kNumAxes; ++a) {
       out.allan[static_cast<std::size_t>(a)].add_series(run_series[static_cast<std::size_t>(a)]);
@@ -192,7 +193,14 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
     const double Trange = acc.nT > 0 ? acc.Tmax - acc.Tmin : 0.0;
     b.is_static = acc.maxw < 0.01 && frange < 0.05 && Trange < opt.block_temp_tol_C && b.n >= 8;
     // Static blocks of one segment are joined into one Allan series (long τ needs long records).
-    if (b.is_static && b.unit == run_unit) {
+    // ... but only while the temperature stays within the block tolerance: a thermal ramp would otherwise
+    // turn bias_temp / temp_rate drift into apparent low-frequency noise and hide them.
+    const double bTmin = acc.nT > 0 ? acc.Tmin : run_Tmin, bTmax = acc.nT > 0 ? acc.Tmax : run_Tmax;
+    const bool temp_ok = acc.nT == 0 || run_Tmin > run_Tmax ||
+                         std::max(run_Tmax, bTmax) - std::min(run_Tmin, bTmin) < opt.block_temp_tol_C;
+    if (b.is_static && b.unit == run_unit && temp_ok) {
+      run_Tmin = std::min(run_Tmin, bTmin);
+      run_Tmax = std::max(run_Tmax, bTmax);
       for (int a = 0; a < kNumAxes; ++a) {
         auto& rs = run_series[static_cast<std::size_t>(a)];
         const auto& bs = acc.series[static_cast<std::size_t>(a)];
@@ -202,6 +210,8 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
       flush_run();
       if (b.is_static) {
         run_unit = b.unit;
+        run_Tmin = acc.nT > 0 ? acc.Tmin : 1e300;
+        run_Tmax = acc.nT > 0 ? acc.Tmax : -1e300;
         for (int a = 0; a < kNumAxes; ++a) run_series[static_cast<std::size_t>(a)] = acc.series[static_cast<std::size_t>(a)];
       }
     }

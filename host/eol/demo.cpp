@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -107,7 +108,19 @@ int run_demo(const DemoOptions& opt) {
     throw std::invalid_argument("demo: " + out.string() + " already holds a demo run; remove it or choose another --out");
   fs::create_directories(out);
   const std::string campaign = opt.campaign.empty() ? ex + "/campaign-eol.json" : opt.campaign;
-  const std::string sensor = ex + "/sensor-automotive.json";
+  // The part: docs/examples/sensor-consumer.json (MPU-6050 class, 16-bit outputs as streamed over CAN)
+  // in its ±500 dps gyro mode, so the campaign's 300 dps rate runs do not saturate.
+  const std::string sensor = (out / "sensor.json").string();
+  {
+    std::ifstream f(ex + "/sensor-consumer.json");
+    if (!f) throw std::runtime_error("demo: cannot read " + ex + "/sensor-consumer.json");
+    json sj = json::parse(f);
+    sj["gyro"]["lsb"] = 500.0 * M_PI / 180.0 / 32768.0;
+    sj["gyro"]["bits"] = 16;
+    sj["gyro"]["range"] = 500.0 * M_PI / 180.0;
+    sj["name"] = sj.value("name", std::string("consumer")) + " (demo: +-500 dps gyro mode)";
+    std::ofstream(sensor) << sj.dump(2) << "\n";
+  }
   const std::string bus = "virtual:demo-" + std::to_string(getpid());
 
   char ts[32];

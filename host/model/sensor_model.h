@@ -63,10 +63,10 @@ struct ModelEffect {
 struct ModelSpec {
   std::string name;
   double T_ref_C = 25.0;
-  std::vector<ModelEffect> effects;     // file order
+  std::vector<ModelEffect> effects;     // sorted by key ("accel.bias" < "gyro.bias": nlohmann::json objects are ordered maps)
   nlohmann::json extra;                 // solver options kept verbatim (e.g. "noise", "mode")
 
-  // Deterministic parameter ids to estimate, in a stable order (effects in file order, components in
+  // Deterministic parameter ids to estimate, in a stable order (effects as in `effects`, components in
   // catalog order). Stochastic effects listed in a model are accepted and ignored here.
   std::vector<ParamId> parameters() const;
   bool has(Sensor s, Effect e) const;

@@ -203,11 +203,9 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
 
   auto kin_at = [&](double t, std::size_t& cur, MotionSample* ms_out) {
     MotionSample ms = sample_motion(tl, t, cur);
+    // Hand-held poses: the IMU is off the table, so lever arm and mount do not apply.
     ImuKinematics k = ms.free ? free_kinematics(ms.C_imu_ned, ms.w_nb_imu, ms.wdot_nb_imu, g_ned, wie_ned)
                               : table_kinematics(geom_tru, ms.table, g_ned, wie_ned);
-    if (ms.free) {
-      // Hand-held: the IMU is not on the table; lever arm and mount do not apply.
-    }
     if (ms_out) *ms_out = ms;
     return k;
   };

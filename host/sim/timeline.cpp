@@ -276,10 +276,8 @@ Timeline build_timeline(const Campaign& c) {
             b.C_ned_imu = k.C_imu_ned.transpose();
             b.free = true;
           }
-          const double d2r = kDeg;
           Eigen::Matrix3d C1 = rotation_zyx_deg(s.attitude_deg[2], s.attitude_deg[1], s.attitude_deg[0]);
           Eigen::AngleAxisd aa(b.C_ned_imu.transpose() * C1);
-          (void)d2r;
           auto& e = b.push(s.move_s, false, "", s.label);
           e.free = true;
           e.has_ref = false;

@@ -28,6 +28,7 @@ struct Args {
   std::string log, model, mode = "fixture", method = "inverse", out, table, serial, noise = "static";
   std::string stop_sigma, campaign, rotation_check;
   bool online = false;
+  double static_window_s = 1.0, static_min_s = 1.5;
 };
 
 Sigma6 noise_from_model(const model::ModelSpec& spec) {
@@ -112,6 +113,9 @@ int run_solve(int argc, char** argv) {
   app.add_option("--campaign", a.campaign, "campaign file: table geometry for fixture+errors");
   app.add_option("--rotation-check", a.rotation_check,
                  "reference-free: a log with one known rotation; prints the integrated angle before/after");
+  app.add_option("--static-window", a.static_window_s, "reference-free: variance window for static detection, s")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--static-min", a.static_min_s, "reference-free: shortest static pose, s")->check(CLI::PositiveNumber);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -157,7 +161,10 @@ int run_solve(int argc, char** argv) {
   if (a.mode == "reference-free") {
     if (a.method == "traditional") throw SolverError("the traditional method needs a fixture (six positions, CW/CCW)");
     RawRecording rec = read_recording(log);
-    ReferenceFreeResult r = solve_reference_free(rec, spec);
+    ReferenceFreeOptions rfo;
+    rfo.window_s = a.static_window_s;
+    rfo.min_duration_s = a.static_min_s;
+    ReferenceFreeResult r = solve_reference_free(rec, spec, rfo);
     res.estimate = r.estimate;
     res.observability = r.observability;
     res.residual_rms = r.residual_rms;

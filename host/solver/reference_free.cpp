@@ -198,7 +198,7 @@ RawRecording read_recording(io::LogReader& log) {
 }
 
 std::vector<StaticInterval> detect_static(const RawRecording& rec, double window_s, double min_duration_s,
-                                          double k_threshold) {
+                                          double k_threshold, StaticSignal signal) {
   const std::size_t n = rec.y.size();
   const std::size_t half = std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(window_s * rec.rate_hz / 2)));
   // Prefix sums of centred values (centring on the channel mean keeps Σy² − (Σy)²/n well conditioned).
@@ -231,17 +231,21 @@ std::vector<StaticInterval> detect_static(const RawRecording& rec, double window
     std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 10), v.end());
     return std::max(v[v.size() / 10], 1e-300);
   };
-  const double fa = floor_of(va), fg = floor_of(vg);
+  // Accelerometer only, as in Tedaldi et al.: a hand holding a pose still trembles enough to lift the
+  // gyro's windowed variance well above its floor while the accelerometer's stays near it.
+  const bool gyro = signal == StaticSignal::kGyro;
+  const std::vector<double>& v = gyro ? vg : va;
+  const double fa = floor_of(v);
   std::vector<StaticInterval> out;
   const std::size_t min_len = static_cast<std::size_t>(std::ceil(min_duration_s * rec.rate_hz));
   std::size_t i = 0;
   while (i < n) {
-    if (!(va[i] < k_threshold * fa && vg[i] < k_threshold * fg)) {
+    if (!(v[i] < k_threshold * fa)) {
       ++i;
       continue;
     }
     std::size_t j = i;
-    while (j < n && va[j] < k_threshold * fa && vg[j] < k_threshold * fg) ++j;
+    while (j < n && v[j] < k_threshold * fa) ++j;
     if (j - i >= std::max<std::size_t>(min_len, 2)) {
       StaticInterval s;
       s.begin = i;
@@ -280,7 +284,8 @@ TriadCal triad_from_estimate(const Estimate& e, const std::string& sensor) {
 }
 
 RotationCheck rotation_check(const RawRecording& rec, const TriadCal& gyro, double window_s) {
-  const auto iv = detect_static(rec, window_s, 2.0, 4.0);
+  // The gyro shows a rotation even where the accelerometer barely changes (rotation about the vertical).
+  const auto iv = detect_static(rec, window_s, 2.0, 4.0, StaticSignal::kGyro);
   if (iv.empty()) throw SolverError("rotation check: no static interval to take the gyro bias from");
   TriadCal g = gyro;
   // Turn-on bias differs at every power-up: take it from this recording's first still period, in output

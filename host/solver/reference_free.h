@@ -1,7 +1,7 @@
 // Reference-free mode (Tedaldi, Pretto, Menegatti, "A robust and easy to implement method for IMU
 // calibration without external equipments", ICRA 2014): static poses of unknown orientation.
 //
-// 1. Static intervals: sliding-window variance (window_s) of the accelerometer and gyro, below
+// 1. Static intervals: sliding-window variance (window_s) of the accelerometer (summed over axes), below
 //    k × the recording's noise floor (10th percentile of the windowed variance), for at least
 //    min_duration_s. k is swept over `thresholds` and the one with the lowest gravity-magnitude residual
 //    (with at least min_intervals poses) is kept, as in the paper.
@@ -53,8 +53,9 @@ struct ReferenceFreeOptions {
   std::vector<double> thresholds = {2, 3, 4, 6, 8, 12, 16};
 };
 
+enum class StaticSignal { kAccel, kGyro };
 std::vector<StaticInterval> detect_static(const RawRecording& rec, double window_s, double min_duration_s,
-                                          double k_threshold);
+                                          double k_threshold, StaticSignal signal = StaticSignal::kAccel);
 
 struct ReferenceFreeResult {
   Estimate estimate;                // the model's parameters (those not fixed by the gauge)

@@ -14,7 +14,7 @@ namespace model = imuforge::model;
 
 namespace {
 
-constexpr int kSeeds = 5;
+constexpr int kSeeds = 8;
 constexpr double kFsRich = 20.0, kFsThermal = 5.0;
 
 struct Target {

@@ -133,9 +133,16 @@ TEST(ModbusDriver, ChamberRampLimitFirstOrderAndDieLag) {
   std::atomic<double> t_sim{0.0};
   lab.bench->set_clock([&] { return t_sim.load(); });
   auto c = fixture::open_chamber(lab.cfg("chamber-1", "imuforge-chamber.json"));
+  // The test owns the clock: it advances the world itself, so a long jump is not paid for inside a
+  // Modbus request (which would time out, slow builds included).
+  auto set_time = [&](double t) {
+    t_sim = t;
+    std::lock_guard<std::mutex> l(lab.bench->mutex());
+    lab.bench->sync();
+  };
   c->set_ramp(2.0);
   c->set_setpoint(45.0);
-  t_sim = 300.0;
+  set_time(300.0);
   const auto s1 = c->status();
   EXPECT_GT(s1.air_degC, 25.0);
   EXPECT_LE(s1.air_degC - 25.0, 2.0 * 300.0 / 60.0 + 1e-9);  // never faster than the ramp limit
@@ -148,7 +155,7 @@ TEST(ModbusDriver, ChamberRampLimitFirstOrderAndDieLag) {
     air_C = lab.bench->world().chamber().air_C;
   }
   EXPECT_LT(die_C, air_C);  // the die lags the air while it heats
-  t_sim = 4.0 * 3600.0;
+  set_time(4.0 * 3600.0);
   const auto s2 = c->status();
   EXPECT_NEAR(s2.air_degC, 45.0, 0.01);
   EXPECT_TRUE(*s2.at_setpoint);

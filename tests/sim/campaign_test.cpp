@@ -282,3 +282,37 @@ TEST(Simulate, FacesOfTheExampleTumbleAreWhatTheDocsSay) {
   }
   EXPECT_EQ(checked, 12);
 }
+
+TEST(Simulate, HandHeldPosesHaveNoReferenceAndRestAtTheAttitude) {
+  json j = {{"name", "poses"},
+            {"sample_rate_hz", 50},
+            {"site", {{"latitude_deg", 35.0}, {"height_m", 0.0}}},
+            {"phases",
+             {{{"type", "plateau"},
+               {"setpoint_C", 25},
+               {"soak_s", 0},
+               {"steps",
+                {{{"type", "pose"}, {"attitude_deg", {30, 0, 0}}, {"move_s", 2}, {"dwell_s", 4}, {"label", "roll 30"}},
+                 {{"type", "pose"}, {"attitude_deg", {0, -90, 45}}, {"move_s", 3}, {"dwell_s", 4}, {"label", "nose down"}}}}}}}};
+  sim::Campaign c = sim::campaign_from_json(j);
+  json sj = model::sensor_model_to_json(ideal_sensor());
+  model::SensorModel m = model::sensor_model_from_json(sj);
+  auto rows = run(c, m, 1);
+  sim::Timeline tl = sim::build_timeline(c);
+  ASSERT_EQ(tl.segments.size(), 2u);
+  const double g = sim::normal_gravity_mps2(sim::Site{35.0, 0.0});
+  for (const auto& r : rows) {
+    EXPECT_FALSE(r.has_ref);
+    EXPECT_TRUE(std::isnan(r.table_angle_rad[0]));
+  }
+  // Resting at roll 30°: |f| = g and the roll recovered from f is 30°.
+  const auto& a = rows[static_cast<std::size_t>((tl.segments[0].t0 + tl.segments[0].t1) / 2 * 50)];
+  const double fy = a.raw[1] * 1e-7, fz = a.raw[2] * 1e-7, fx = a.raw[0] * 1e-7;
+  EXPECT_NEAR(std::sqrt(fx * fx + fy * fy + fz * fz), g, 1e-5);
+  EXPECT_NEAR(std::atan2(-fy, -fz) * 180 / M_PI, 30.0, 1e-5);
+  const auto& b = rows[static_cast<std::size_t>((tl.segments[1].t0 + tl.segments[1].t1) / 2 * 50)];
+  EXPECT_NEAR(b.raw[0] * 1e-7, -g, 1e-5);  // pitch −90° (NED): nose (x) down, f_x = −g
+  // The gyro at rest reads only the Earth rate.
+  const double wn = std::sqrt(std::pow(b.raw[3] * 1e-8, 2) + std::pow(b.raw[4] * 1e-8, 2) + std::pow(b.raw[5] * 1e-8, 2));
+  EXPECT_NEAR(wn, sim::wgs84::kOmegaE_rad_s, 2e-8);
+}
