@@ -56,23 +56,21 @@ bool Tracker::add_segment(const io::LogMeta& meta, const std::vector<io::LogRow>
   double den = m * stt - st * st;
   double tdot = den > 0 ? (m * stT - st * sT) / den : 0.0;
 
-  for (std::size_t b0 = 0; b0 + block <= use.size(); b0 += block) {
-    for (int s = 0; s < 2; ++s)
-      for (int j = 0; j < 3; ++j) {
-        double mean = 0;
-        for (std::size_t i = b0; i < b0 + block; ++i) mean += use[i]->raw[3 * s + j] * lsb_[s] - (s ? use[i]->w_ref[j] : use[i]->f_ref[j]);
-        mean /= static_cast<double>(block);
-        double ss = 0;
-        for (std::size_t i = b0; i < b0 + block; ++i) {
-          double e = use[i]->raw[3 * s + j] * lsb_[s] - (s ? use[i]->w_ref[j] : use[i]->f_ref[j]) - mean;
-          ss += e * e;
-        }
-        if (block > 1) {
-          pooled_ss_[s] += ss;
-          pooled_dof_[s] += static_cast<double>(block - 1);
-        }
+  // Noise: scatter of (y − u) about its segment mean, pooled over segments (dof N − 1 each). Works at any
+  // sample rate (0.1 s blocks may hold a single sample) and in constant-rate runs alike.
+  for (int s = 0; s < 2; ++s)
+    for (int j = 0; j < 3; ++j) {
+      double mean = 0;
+      for (auto* r : use) mean += r->raw[3 * s + j] * lsb_[s] - (s ? r->w_ref[j] : r->f_ref[j]);
+      mean /= static_cast<double>(use.size());
+      double ss = 0;
+      for (auto* r : use) {
+        double e = r->raw[3 * s + j] * lsb_[s] - (s ? r->w_ref[j] : r->f_ref[j]) - mean;
+        ss += e * e;
       }
-  }
+      pooled_ss_[s] += ss;
+      pooled_dof_[s] += static_cast<double>(use.size() - 1);
+    }
   const double sigma[2] = {accel_noise(), gyro_noise()};
   bool accel_ok = true;
   for (auto* r : use)
