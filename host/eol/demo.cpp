@@ -148,7 +148,7 @@ int run_demo(const DemoOptions& opt) {
                      {"map", "imuforge-chamber.json"}, {"timeout_s", 1.0}, {"retries", 3}}}}},
       {"can", {{"bus", bus}, {"node_id", 1}, {"stream_rate_hz", opt.stream_rate_hz}}},
       {"records", {{"db", (out / "records.sqlite").string()}}},
-      {"settle", {{"temp_window_s", 180}, {"temp_slope_C_per_min", 0.1}, {"temp_band_C", 3}, {"table_timeout_s", 120},
+      {"settle", {{"temp_window_s", 180}, {"temp_slope_C_per_min", 0.1}, {"temp_band_C", 3}, {"table_timeout_s", 1200},
                   {"temp_timeout_s", 7200}}},
       {"early_stop", opt.early_stop},
   };

@@ -366,7 +366,11 @@ RunResult Runner::run() {
       if (r.in_position && r.settled) return r;
       if (bench_.time_s() - t0 > st.table_timeout_s)
         throw PeerError("rate table not in position and settled within " + std::to_string(st.table_timeout_s) +
-                        " s while " + what);
+                        " s while " + what + " (angles " + std::to_string(r.angle_deg[0]) + ", " +
+                        std::to_string(r.angle_deg[1]) + ", " + std::to_string(r.angle_deg[2]) + " deg, rates " +
+                        std::to_string(r.rate_dps[0]) + ", " + std::to_string(r.rate_dps[1]) + ", " +
+                        std::to_string(r.rate_dps[2]) + " dps, in_position " + std::to_string(r.in_position) +
+                        ", settled " + std::to_string(r.settled) + ")");
       bench_.wait(0.1);
     }
   };

@@ -79,8 +79,9 @@ struct Campaign {
   std::vector<CampaignPhase> phases;
   nlohmann::json simulation;  // optional "simulation" block (fixture errors, encoder noise); runner ignores
 
-  // Nominal duration (s) of the whole schedule including moves, from the limits (approximate: the
-  // simulator's timeline is authoritative).
+  // Nominal duration (s) of the whole schedule including moves and chamber slews, from the limits.
+  // Mirrors the simulator's timeline (within 1 % on the examples; sine steps are approximate).
+  // For progress/ETA displays; sim::build_timeline() is authoritative.
   double nominal_duration_s() const;
   // Number of steps over all phases (segments = steps + plateau soaks + ramps).
   std::size_t num_steps() const;

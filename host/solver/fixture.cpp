@@ -116,9 +116,10 @@ void FixtureAccumulator::add(const io::LogRow& row) {
     block_u_[3 + k] += row.w_ref[k];
   }
   double z[kNumChannels];
+  const double u[kNumChannels] = {row.f_ref[0], row.f_ref[1], row.f_ref[2], row.w_ref[0], row.w_ref[1], row.w_ref[2]};
   for (int c = 0; c < kNumChannels; ++c) {
     const double y = row.raw[c] * lsb_[c / 3];
-    z[c] = y - (c < 3 ? row.f_ref[c] : row.w_ref[c - 3]);
+    z[c] = y - u[c];
     seg_y_sum_[c] += y;
     seg_y_sq_[c] += y * y;
   }

@@ -57,7 +57,9 @@ TEST(Campaign, ExamplesParseAndRoundTrip) {
   EXPECT_GE(eol.num_steps(), 4 * 24u);
   sim::Timeline tl = sim::build_timeline(eol);
   EXPECT_GT(tl.duration_s, 3600.0);  // realistic: hours, dominated by chamber soaks
-  EXPECT_NEAR(tl.duration_s, eol.nominal_duration_s(), 0.15 * tl.duration_s);
+  EXPECT_NEAR(tl.duration_s, eol.nominal_duration_s(), 0.01 * tl.duration_s);
+  sim::Campaign small = sim::load_campaign(ex("campaign-small.json"));
+  EXPECT_NEAR(sim::build_timeline(small).duration_s, small.nominal_duration_s(), 0.01 * small.nominal_duration_s());
 }
 
 TEST(Campaign, ErrorsNameTheJsonPath) {

@@ -4,6 +4,7 @@
 #include "host/model/sensor_model.h"
 #include "host/solver/fixture.h"
 #include "host/solver/srif.h"
+#include "host/solver/traditional.h"
 #include "tests/solver/synth.h"
 
 using namespace imuforge;
@@ -110,5 +111,26 @@ TEST(FixtureMode, RecursiveEqualsBatchWithin1e6Sigma) {
     EXPECT_LT(std::abs(rec.value[long(i)] - batch.estimate.value[long(i)]), 1e-6 * batch.estimate.sigma()[long(i)])
         << rec.names[i];
     EXPECT_LT(std::abs(rec.sigma()[long(i)] - batch.estimate.sigma()[long(i)]), 1e-6 * batch.estimate.sigma()[long(i)]);
+  }
+}
+
+TEST(FixtureMode, TraditionalMatchesInverseOnCleanData) {
+  synth::Config cfg;
+  cfg.plateaus_C = {25};
+  cfg.drift_C = 0.0;
+  auto truth = synth::truth_params();
+  const auto spec = model::load_model_spec(IMUFORGE_SOURCE_DIR "/docs/examples/model-basic.json");
+  FixtureAccumulator acc(spec, synth::meta(cfg));
+  synth::generate(cfg, truth, 4, [&](const io::LogRow& r) { acc.add(r); });
+  acc.finish();
+  const TraditionalResult tr = solve_traditional(acc.segments(), 25.0);
+  const FixtureSolution inv = solve_fixture(acc, sigma_of(cfg));
+  ASSERT_EQ(tr.estimate.names.size(), 24u);
+  for (size_t i = 0; i < tr.estimate.names.size(); ++i) {
+    const int k = inv.estimate.index_of(tr.estimate.names[i]);
+    ASSERT_GE(k, 0);
+    // At T_ref with exact axis-aligned references the baseline is unbiased, just less efficient.
+    EXPECT_LT(std::abs(tr.estimate.value[long(i)] - truth.get(tr.estimate.names[i])), 6 * inv.estimate.sigma()[k])
+        << tr.estimate.names[i];
   }
 }
