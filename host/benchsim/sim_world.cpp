@@ -21,6 +21,7 @@
 namespace imuforge::benchsim {
 
 namespace {
+constexpr double kPi = 3.14159265358979323846;
 
 struct Axis {
   AxisMode mode = AxisMode::kIdle;
@@ -91,7 +92,7 @@ class SimWorld final : public World {
     r.command = x.command;
     r.angle_rad = x.angle;
     r.rate_rad_s = x.rate;
-    r.in_position = x.mode == AxisMode::kPosition ? std::fabs(x.command - x.angle) <= cfg_.in_position_rad
+    r.in_position = x.mode == AxisMode::kPosition ? std::fabs(position_error(x)) <= cfg_.in_position_rad
                     : x.mode == AxisMode::kRate   ? std::fabs(x.command - x.rate) <= 1e-9
                                                   : std::fabs(x.rate) <= 1e-9;
     r.settled = r.in_position && x.steady_s >= cfg_.settle_s;
@@ -134,6 +135,10 @@ class SimWorld final : public World {
   }
 
  private:
+  // The axes turn without end stops: after rate runs the integrated angle holds many turns, and a
+  // position command must take the shortest way to the commanded angle modulo one turn, not unwind.
+  static double position_error(const Axis& x) { return std::remainder(x.command - x.angle, 2.0 * kPi); }
+
   void step_axis(Axis& x, double dt) {
     const double amax = cfg_.max_accel_rad_s2, vmax = cfg_.max_rate_rad_s;
     double v_goal = 0;
@@ -143,7 +148,7 @@ class SimWorld final : public World {
       // Time-optimal approach under rate and acceleration limits: the fastest rate from which the axis
       // can still stop at the target.
       // The last term lands exactly on the target in one step once the acceleration limit allows it.
-      const double e = x.command - x.angle;
+      const double e = position_error(x);
       v_goal = std::copysign(std::min({vmax, std::sqrt(2.0 * amax * std::fabs(e)), std::fabs(e) / dt}), e);
     }
     const double dv = std::clamp(v_goal - x.rate, -amax * dt, amax * dt);
@@ -156,7 +161,7 @@ class SimWorld final : public World {
     for (Axis& x : axes_) {
       step_axis(x, dt);
       // Settling: the goal must hold continuously for settle_s.
-      const bool goal = x.mode == AxisMode::kPosition ? std::fabs(x.command - x.angle) <= cfg_.in_position_rad
+      const bool goal = x.mode == AxisMode::kPosition ? std::fabs(position_error(x)) <= cfg_.in_position_rad
                         : x.mode == AxisMode::kRate   ? std::fabs(x.command - x.rate) <= 1e-9
                                                       : std::fabs(x.rate) <= 1e-9;
       x.steady_s = goal ? x.steady_s + dt : 0.0;
