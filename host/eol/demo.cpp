@@ -152,15 +152,12 @@ int run_demo(const DemoOptions& opt) {
                   {"temp_timeout_s", 7200}}},
       {"early_stop", opt.early_stop},
   };
-  // Limits: σ specs as docs/examples/spec-sigma.json; value limits generous for an automotive part.
-  json spec_file;
-  {
-    std::ifstream f(ex + "/spec-sigma.json");
-    if (f) spec_file = json::parse(f, nullptr, false);
-  }
-  json lim = json::object();
-  if (spec_file.is_object() && spec_file.contains("sigma"))
-    for (auto it = spec_file["sigma"].begin(); it != spec_file["sigma"].end(); ++it) lim[it.key()]["sigma"] = it.value();
+  // Limits for a consumer-grade part (docs/examples/spec-sigma.json is for a better class of sensor).
+  json lim = {{"accel.bias", {{"sigma", 2e-3}}},       {"accel.scale", {{"sigma", 5e-4}}},
+              {"accel.misalign", {{"sigma", 5e-4}}},   {"accel.bias_temp", {{"sigma", 2e-4}}},
+              {"accel.scale_temp", {{"sigma", 5e-5}}}, {"gyro.bias", {{"sigma", 1e-4}}},
+              {"gyro.scale", {{"sigma", 5e-4}}},       {"gyro.misalign", {{"sigma", 5e-4}}},
+              {"gyro.bias_temp", {{"sigma", 1e-5}}},   {"gyro.scale_temp", {{"sigma", 5e-5}}}};
   lim["accel.bias"]["abs"] = 0.5;
   lim["accel.scale"]["abs"] = 0.03;
   lim["accel.misalign"]["abs"] = 0.02;
