@@ -72,7 +72,7 @@ class SimWorld final : public World {
     Axis& x = axes_.at(static_cast<size_t>(a));
     x.fault = false;
     x.fault_code = 0;
-    if (mode == AxisMode::kRate && std::fabs(value) > cfg_.max_rate_rad_s) {
+    if (mode == AxisMode::kRate && std::fabs(value) > max_rate(static_cast<size_t>(a))) {
       // The table's own protection: refuse and stop, flagged as a fault the host can read.
       x.mode = AxisMode::kIdle;
       x.command = 0;
@@ -139,8 +139,16 @@ class SimWorld final : public World {
   // position command must take the shortest way to the commanded angle modulo one turn, not unwind.
   static double position_error(const Axis& x) { return std::remainder(x.command - x.angle, 2.0 * kPi); }
 
-  void step_axis(Axis& x, double dt) {
-    const double amax = cfg_.max_accel_rad_s2, vmax = cfg_.max_rate_rad_s;
+  double max_rate(size_t i) const {
+    return cfg_.axis_max_rate_rad_s[i] > 0 ? cfg_.axis_max_rate_rad_s[i] : cfg_.max_rate_rad_s;
+  }
+  double max_accel(size_t i) const {
+    return cfg_.axis_max_accel_rad_s2[i] > 0 ? cfg_.axis_max_accel_rad_s2[i] : cfg_.max_accel_rad_s2;
+  }
+
+  void step_axis(size_t i, double dt) {
+    Axis& x = axes_[i];
+    const double amax = max_accel(i), vmax = max_rate(i);
     double v_goal = 0;
     if (x.mode == AxisMode::kRate) {
       v_goal = x.command;
@@ -158,8 +166,9 @@ class SimWorld final : public World {
   }
 
   void step(double dt) {
-    for (Axis& x : axes_) {
-      step_axis(x, dt);
+    for (size_t i = 0; i < axes_.size(); ++i) {
+      step_axis(i, dt);
+      Axis& x = axes_[i];
       // Settling: the goal must hold continuously for settle_s.
       const bool goal = x.mode == AxisMode::kPosition ? std::fabs(position_error(x)) <= cfg_.in_position_rad
                         : x.mode == AxisMode::kRate   ? std::fabs(x.command - x.rate) <= 1e-9

@@ -76,6 +76,10 @@ struct WorldConfig {
   int axes = 3;
   double max_rate_rad_s = 500.0 * 3.14159265358979323846 / 180.0;
   double max_accel_rad_s2 = 300.0 * 3.14159265358979323846 / 180.0;
+  // Per-axis limits, innermost first; 0 means "use max_rate_rad_s / max_accel_rad_s2". Real tables
+  // have a slow, heavy gimbal and a fast inner axis, so one limit for all would refuse valid runs.
+  std::array<double, 3> axis_max_rate_rad_s{};
+  std::array<double, 3> axis_max_accel_rad_s2{};
   double in_position_rad = 0.001 * 3.14159265358979323846 / 180.0;  // window around the target
   double settle_s = 1.0;                                             // steady for this long -> settled
   double initial_C = 25.0;

@@ -64,15 +64,10 @@ WorldConfig world_config(const std::string& campaign_path, const std::string& wo
       throw std::runtime_error(std::string("campaign: ") + e.what());
     }
     wc.axes = static_cast<int>(c.axes.size());
-    double rate = 1e300, acc = 1e300;
     for (size_t i = 0; i < c.axes.size() && i < 3; ++i) {
       wc.axis_names[i] = c.axes[i].axis;
-      rate = std::min(rate, c.axes[i].max_rate_dps);
-      acc = std::min(acc, c.axes[i].max_accel_dps2);
-    }
-    if (!c.axes.empty()) {
-      wc.max_rate_rad_s = rate * kDeg;
-      wc.max_accel_rad_s2 = acc * kDeg;
+      wc.axis_max_rate_rad_s[i] = c.axes[i].max_rate_dps * kDeg;
+      wc.axis_max_accel_rad_s2[i] = c.axes[i].max_accel_dps2 * kDeg;
     }
     wc.mount_ypr_deg = c.mount_rotation_deg;
     wc.lever_arm_m = c.lever_arm_m;

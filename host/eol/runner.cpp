@@ -215,7 +215,7 @@ RunResult Runner::run() {
   for (int i = 0; i < n; ++i) {
     const ParamLimit* l = st.limit_for(tracker.names()[static_cast<std::size_t>(i)]);
     if (l && l->sigma_max > 0) {
-      sigma_spec[i] = l->sigma_max;
+      sigma_spec[i] = l->sigma_max * st.early_stop_sigma_fraction;
       have_spec = true;
     }
   }

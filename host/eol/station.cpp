@@ -82,6 +82,9 @@ StationConfig station_from_json(const nlohmann::json& j, const std::string& dir)
     s.table_timeout_s = get_or<double>(t, "table_timeout_s", s.table_timeout_s, "settle.");
   }
   s.early_stop = get_or<bool>(j, "early_stop", s.early_stop, "");
+  s.early_stop_sigma_fraction = get_or<double>(j, "early_stop_sigma_fraction", s.early_stop_sigma_fraction, "");
+  if (!(s.early_stop_sigma_fraction > 0) || s.early_stop_sigma_fraction > 1)
+    throw StationError("station: early_stop_sigma_fraction must be in (0, 1]");
   if (j.contains("limits")) {
     const auto& l = j["limits"];
     if (l.contains("parameters")) {
