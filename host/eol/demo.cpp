@@ -104,8 +104,10 @@ int run_demo(const DemoOptions& opt) {
   const auto wall0 = std::chrono::steady_clock::now();
   const std::string ex = find_examples_dir(opt.examples_dir, opt.self_exe);
   const fs::path out = fs::absolute(opt.out_dir);
-  if (fs::exists(out / "run" / "journal.log"))
-    throw std::invalid_argument("demo: " + out.string() + " already holds a demo run; remove it or choose another --out");
+  // A demo run never overwrites an earlier one: each goes to the first free run, run-2, run-3, ...
+  // (the records database in the same folder keeps every run's record).
+  fs::path run_dir = out / "run";
+  for (int k = 2; fs::exists(run_dir); ++k) run_dir = out / ("run-" + std::to_string(k));
   fs::create_directories(out);
   const std::string campaign = opt.campaign.empty() ? ex + "/campaign-eol.json" : opt.campaign;
   // The part: docs/examples/sensor-consumer.json (MPU-6050 class, 16-bit outputs as streamed over CAN)
@@ -180,7 +182,7 @@ int run_demo(const DemoOptions& opt) {
   auto ops = make_table_ops();
   DeviceInfo info = dev->identify();
   RunOptions ro;
-  ro.out_dir = (out / "run").string();
+  ro.out_dir = run_dir.string();
   ro.serial = info.serial;
   ro.campaign_path = campaign;
   ro.station_path = station_path;
