@@ -106,7 +106,7 @@ std::string chart(const std::string& title, const std::vector<Series>& series, c
 
 // A small bar: value ± 2σ against ±limit (the limit is the full half-width).
 std::string param_bar(double v, double s, double lim) {
-  const double W = 220, H = 16, C = W / 2;
+  const double W = 220, C = W / 2;  // the SVG is 220 x 16 px
   double scale = lim > 0 ? lim : std::max(std::fabs(v) + 2 * s, 1e-300);
   auto X = [&](double x) { return std::clamp(C + x / scale * (W / 2 - 4), 1.0, W - 1); };
   std::string o = "<svg xmlns='http://www.w3.org/2000/svg' width='220' height='16'>";

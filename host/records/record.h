@@ -1,6 +1,8 @@
 // One end-of-line calibration record: what the station did to one device, and the verdict.
 // The schema that stores it is documented in docs/eol.md ("Records") and created by schema_sql().
 #pragma once
+
+#include "host/io/utc_time.h"
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -53,6 +55,6 @@ struct CalibrationRecord {
 std::string new_record_id();
 
 // Current UTC time, ISO-8601 with seconds: "2026-11-22T10:22:13Z".
-std::string utc_now_iso8601();
+using io::utc_now_iso8601;  // host/io/utc_time.h
 
 }  // namespace imuforge::records

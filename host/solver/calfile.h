@@ -1,6 +1,8 @@
 // cal.json: the calibration result file (format documented in docs/calibration.md).
 #pragma once
 
+#include "host/io/utc_time.h"
+
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -34,6 +36,6 @@ nlohmann::json calibration_to_json(const CalibrationResult& r);
 // Reads back parameters {name: value} (and sigma when present); throws SolverError on a malformed file.
 Estimate calibration_from_json(const nlohmann::json& j);
 // Current UTC time as ISO 8601 (provenance).
-std::string utc_now_iso8601();
+using io::utc_now_iso8601;  // host/io/utc_time.h
 
 }  // namespace imuforge::solver
