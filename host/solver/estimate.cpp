@@ -34,8 +34,6 @@ NormalEquations& NormalEquations::operator+=(const NormalEquations& o) {
   return *this;
 }
 
-namespace {
-
 std::string format_combination(const Eigen::VectorXd& v, const std::vector<std::string>& names) {
   std::vector<int> idx(static_cast<size_t>(v.size()));
   std::iota(idx.begin(), idx.end(), 0);
@@ -53,6 +51,8 @@ std::string format_combination(const Eigen::VectorXd& v, const std::vector<std::
   }
   return s;
 }
+
+namespace {
 
 struct Scaled {
   Eigen::VectorXd d;  // scale: θ_scaled = θ / d, d = 1/√H_ii

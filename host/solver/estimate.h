@@ -49,6 +49,10 @@ struct Observability {
   std::vector<bool> parameter_unobservable;
 };
 
+// A direction of parameter space as readable text: "0.707*a - 0.707*b" (components below 0.05 omitted,
+// the largest made positive so the text is stable across eigen-solvers).
+std::string format_combination(const Eigen::VectorXd& v, const std::vector<std::string>& names);
+
 // rel_tol: an eigenvalue of the unit-diagonal information below rel_tol·λ_max counts as zero.
 // The default sits far above double rounding (≈1e-16·n) and far below any design we call observable.
 constexpr double kDefaultRankTolerance = 1e-11;

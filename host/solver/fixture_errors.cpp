@@ -1,5 +1,6 @@
 #include "host/solver/fixture_errors.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -170,6 +171,135 @@ class FixtureErrorsProblem : public NonlinearProblem {
   mutable Sigma6 rms_{};
 };
 
+// The gauge (fixture_errors.h). Works on the null space N (columns) of the unit-diagonal information at
+// the start point, split into model rows N_m and nuisance rows N_u. Fixing a set F of nuisance
+// parameters leaves the null directions with zero F-components: N·null(N_F).
+//  1. A null direction with a model component means the data cannot tell that model combination from
+//     fixture errors. The one legitimate case is the platform convention: with full misalignments of both
+//     triads, a common rotation of their input axes (δM_a = δM_g = −[ε×]) is the same as rotating the
+//     IMU on the platform. If the model part of the null space lies within those three rotation
+//     generators, nuisance parameters (the mount first) are fixed until no model component is left; the
+//     misalignments are then relative to the platform. Any other model component is a campaign
+//     deficiency, reported by name: fixing a nuisance parameter there would silently move its true value
+//     into the model estimates.
+//  2. The remaining null directions are pure nuisance (a constant rotation passed from one gimbal to the
+//     next): fixing any independent set of nuisance parameters spanning them changes no model estimate to
+//     first order. Innermost axis first, the mount last, so the mount stays an output where it can.
+struct GaugeDecision {
+  std::vector<int> fixed;  // nuisance indices
+  bool mount_fixed = false;
+};
+
+// Columns spanning {c : a c = 0}, from the SVD of a.
+Eigen::MatrixXd null_columns(const Eigen::MatrixXd& a, double tol) {
+  const long k = a.cols();
+  if (a.rows() == 0) return Eigen::MatrixXd::Identity(k, k);
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeFullV);
+  long r = 0;
+  for (long i = 0; i < svd.singularValues().size(); ++i)
+    if (svd.singularValues()[i] > tol) ++r;
+  return svd.matrixV().rightCols(k - r);
+}
+
+long count_above(const Eigen::MatrixXd& a, double tol) {
+  if (a.rows() == 0 || a.cols() == 0) return 0;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a);
+  long r = 0;
+  for (long i = 0; i < svd.singularValues().size(); ++i)
+    if (svd.singularValues()[i] > tol) ++r;
+  return r;
+}
+
+GaugeDecision choose_gauge(const Eigen::MatrixXd& info, const std::vector<std::string>& names, int nm,
+                           const std::vector<model::ParamId>& model_ids, const std::vector<Nuisance>& nu, double tol) {
+  constexpr double kPart = 0.1;  // a unit null direction whose part in a subspace exceeds this lies in it
+  const int n = static_cast<int>(info.rows()), nn = n - nm;
+  GaugeDecision g;
+  Eigen::VectorXd d(n), sqrt_h(n);
+  for (int i = 0; i < n; ++i) {
+    if (!(info(i, i) > 0) && i < nm)
+      throw SolverError("fixture+errors: the campaign does not excite model parameter " + names[static_cast<size_t>(i)]);
+    // A nuisance parameter without information (an axis that never moves) is a null direction by itself.
+    sqrt_h[i] = info(i, i) > 0 ? std::sqrt(info(i, i)) : 0.0;
+    d[i] = sqrt_h[i] > 0 ? 1.0 / sqrt_h[i] : 0.0;
+  }
+  Eigen::MatrixXd hs = d.asDiagonal() * info * d.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(hs);
+  const double lmax = es.eigenvalues()[n - 1];
+  int k = 0;
+  while (k < n && es.eigenvalues()[k] <= tol * lmax) ++k;
+  const Eigen::MatrixXd N = es.eigenvectors().leftCols(k);
+  if (std::getenv("IMUFORGE_LM_DEBUG"))
+    for (int j = 0; j < k; ++j) std::fprintf(stderr, "fixture+errors null: %s\n", format_combination(N.col(j), names).c_str());
+  if (k == 0) return g;
+  auto remaining = [&](const std::vector<int>& F) {
+    Eigen::MatrixXd NF(static_cast<long>(F.size()), N.cols());
+    for (size_t r = 0; r < F.size(); ++r) NF.row(static_cast<long>(r)) = N.row(nm + F[r]);
+    return Eigen::MatrixXd(N * null_columns(NF, 0.05));
+  };
+  auto model_rank = [&](const Eigen::MatrixXd& basis) { return count_above(basis.topRows(nm), kPart); };
+  bool platform = false;
+  if (model_rank(N) > 0) {
+    // The rotation generators, in scaled coordinates, where the model has every misalignment.
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(nm, 3);
+    bool all = true;
+    for (int s = 0; s < 2 && all; ++s)
+      for (int j = 0; j < 3 && all; ++j)
+        for (int kk = 0; kk < 3 && all; ++kk) {
+          if (j == kk) continue;
+          const std::string nmn = std::string(s ? "gyro" : "accel") + ".misalign." + "xyz"[j] + "xyz"[kk];
+          const auto it = std::find(model_ids.begin(), model_ids.end(), model::find_param(nmn));
+          if (it == model_ids.end()) {
+            all = false;
+            break;
+          }
+          const long row = static_cast<long>(it - model_ids.begin());
+          // −[ε×](j,k) = ε_i with sign: (x,y) ↔ +ε_z, (y,x) ↔ −ε_z, ... (−[ε×] = [[0,ε_z,−ε_y],[−ε_z,0,ε_x],[ε_y,−ε_x,0]])
+          const int i = 3 - j - kk;
+          const double sign = ((j + 1) % 3 == kk) ? 1.0 : -1.0;
+          G(row, i) = sign * sqrt_h[row];
+        }
+    Eigen::MatrixXd outside = N.topRows(nm);
+    if (all) {
+      const Eigen::HouseholderQR<Eigen::MatrixXd> qr(G);
+      const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(nm, 3);
+      outside -= Q * (Q.transpose() * outside);
+    }
+    if (count_above(outside, kPart) > 0) {
+      Eigen::JacobiSVD<Eigen::MatrixXd> svd(outside, Eigen::ComputeFullV);
+      std::string msg;
+      for (long j = 0; j < svd.singularValues().size(); ++j)
+        if (svd.singularValues()[j] > kPart) msg += (msg.empty() ? "" : "; ") + format_combination(N * svd.matrixV().col(j), names);
+      throw SolverError("fixture+errors: the campaign cannot separate fixture errors from the model: " + msg +
+                        ". Add positions and rate runs that use every table axis at several angles of the others "
+                        "(docs/calibration.md, 'Campaign design for fixture+errors'), or state measured fixture "
+                        "properties with \"fixture_nuisance\": {\"assume_zero\": [...]} in the model");
+    }
+    platform = true;
+  }
+  // Fix nuisance parameters until no null direction is left: any independent set does (N_F nonsingular).
+  // Order: innermost axis first and the mount last, so the mount stays an output where it can; the mount
+  // first in the platform convention, whose misalignments are relative to the platform by definition.
+  std::vector<int> order;
+  for (int pass = 0; pass < 2; ++pass)
+    for (int i = 0; i < nn; ++i)
+      if ((nu[static_cast<size_t>(i)].axis < 0) == (platform ? pass == 0 : pass == 1)) order.push_back(i);
+  long dim = N.cols();
+  for (int i : order) {
+    if (dim == 0) break;
+    std::vector<int> F = g.fixed;
+    F.push_back(i);
+    const long dim2 = remaining(F).cols();
+    if (dim2 < dim) {
+      g.fixed = F;
+      dim = dim2;
+      g.mount_fixed = g.mount_fixed || nu[static_cast<size_t>(i)].axis < 0;
+    }
+  }
+  if (dim > 0) throw SolverError("fixture+errors: internal: could not choose a gauge for the nuisance parameters");
+  return g;
+}
+
 }  // namespace
 
 FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& c,
@@ -199,38 +329,29 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
     // The plain fixture problem may be ill-posed on its own; start from zero.
   }
   FixtureErrorsResult res;
-  // Gauge: fix nuisance parameters that sit in unobservable directions at the start point.
-  for (int round = 0; round < 20; ++round) {
+  // Nuisance parameters the user asserts are zero (a trusted, measured fixture property).
+  for (const std::string& name : opt.assume_zero) {
+    auto it = std::find_if(nu.begin(), nu.end(), [&](const Nuisance& n) { return n.name == name; });
+    if (it == nu.end()) throw SolverError("fixture_nuisance.assume_zero: unknown nuisance parameter '" + name + "'");
+    res.assumed_zero.push_back(name);
+    nu.erase(it);
+  }
+  std::vector<std::string> names;
+  for (model::ParamId id : spec.parameters()) names.push_back(model::param_info(id).name);
+  for (const auto& n : nu) names.push_back(n.name);
+  {
     FixtureErrorsProblem prob(log, spec, c, nu, sigma);
     Eigen::VectorXd x0 = Eigen::VectorXd::Zero(prob.num_params());
     x0.head(nm) = theta0;
     NormalEquations ne(prob.num_params());
     prob.linearize(x0, ne);
-    std::vector<std::string> names;
-    for (model::ParamId id : spec.parameters()) names.push_back(model::param_info(id).name);
-    for (const auto& n : nu) names.push_back(n.name);
-    const Observability obs = analyse_observability(ne.info, names, opt.gauge_tolerance);
-    if (std::getenv("IMUFORGE_LM_DEBUG")) {
-      std::fprintf(stderr, "fixture+errors gauge round %d: rank %d/%d cond %.3g\n", round, obs.rank, prob.num_params(),
-                   obs.condition_number);
-      for (const auto& u : obs.unobservable) std::fprintf(stderr, "  null: %s\n", u.c_str());
-    }
-    if (obs.rank == prob.num_params()) break;
-    // The most nearly unobservable direction of the scaled information:
-    const Eigen::VectorXd d = ne.info.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(d.asDiagonal() * ne.info * d.asDiagonal());
-    const Eigen::VectorXd v = es.eigenvectors().col(0);
-    // Of the nuisance parameters in that direction, fix the innermost one: the inner axis's zero and
-    // tilts are the ones equivalent to a mount rotation, so fixing them first leaves the outer axes free.
-    int best = -1;
-    for (int k = 0; k < static_cast<int>(nu.size()) && best < 0; ++k)
-      if (std::abs(v[nm + k]) > 0.05) best = k;
-    if (best < 0) {
-      // No nuisance parameter involved: a genuine deficiency of the model/campaign; report it by name.
-      covariance_from_information(ne.info, names);
-    }
-    res.fixed.push_back(nu[static_cast<size_t>(best)].name);
-    nu.erase(nu.begin() + best);
+    const GaugeDecision g = choose_gauge(ne.info, names, nm, spec.parameters(), nu, opt.gauge_tolerance);
+    for (int k : g.fixed) res.fixed.push_back(nu[static_cast<size_t>(k)].name);
+    res.mount_fixed = g.mount_fixed;
+    std::vector<Nuisance> keep;
+    for (int k = 0; k < static_cast<int>(nu.size()); ++k)
+      if (std::find(g.fixed.begin(), g.fixed.end(), k) == g.fixed.end()) keep.push_back(nu[static_cast<size_t>(k)]);
+    nu = keep;
   }
   FixtureErrorsProblem prob(log, spec, c, nu, sigma);
   Eigen::VectorXd x0 = Eigen::VectorXd::Zero(prob.num_params());
@@ -242,8 +363,7 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
   const LmResult lm = levenberg_marquardt(prob, x0, lo);
   if (!lm.converged) throw SolverError("fixture+errors: Levenberg-Marquardt did not converge in " +
                                        std::to_string(lm.iterations) + " iterations");
-  std::vector<std::string> names;
-  for (model::ParamId id : spec.parameters()) names.push_back(model::param_info(id).name);
+  names.resize(static_cast<size_t>(nm));
   for (const auto& n : nu) {
     names.push_back(n.name);
     res.nuisance_names.push_back(n.name);
@@ -268,8 +388,23 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
     throw SolverError("campaign '" + campaign_path + "': " + e.what());
   }
   FixtureErrorsOptions o;
-  if (auto it = spec.extra.find("fixture_nuisance"); it != spec.extra.end() && it->is_object())
-    o.mount = it->value("mount", false);
+  if (auto it = spec.extra.find("fixture_nuisance"); it != spec.extra.end()) {
+    if (!it->is_object()) throw SolverError("model: \"fixture_nuisance\" must be an object");
+    for (auto kv = it->begin(); kv != it->end(); ++kv) {
+      if (kv.key() == "mount") {
+        if (!kv.value().is_boolean()) throw SolverError("model: fixture_nuisance.mount must be true or false");
+        o.mount = kv.value().get<bool>();
+      } else if (kv.key() == "assume_zero") {
+        if (!kv.value().is_array()) throw SolverError("model: fixture_nuisance.assume_zero must be a list of names");
+        for (const auto& v : kv.value()) {
+          if (!v.is_string()) throw SolverError("model: fixture_nuisance.assume_zero must be a list of names");
+          o.assume_zero.push_back(v.get<std::string>());
+        }
+      } else if (kv.key().empty() || kv.key()[0] != '_') {
+        throw SolverError("model: fixture_nuisance: unknown key '" + kv.key() + "' (expected mount, assume_zero)");
+      }
+    }
+  }
   return solve_fixture_errors(log, spec, c, o);
 }
 

@@ -9,10 +9,17 @@
 // update of the (n_model + n_nuisance)² information. Static dwells reuse the kinematics (angles constant).
 //
 // Gauge: a constant rotation of the IMU case on the platform (mount rotation; equally the zero offset of
-// the innermost axis when it is the case's own axis) is indistinguishable from a common rotation of both
-// triads' misalignments: no campaign separates them. Nuisance parameters found in an unobservable
-// direction of the information at the start are fixed at zero (reported in `fixed`); a direction with no
-// nuisance parameter in it is an error as in every other mode.
+// the innermost axis, and one of its two tilts together with the next axis's zero) is indistinguishable
+// from a common rotation of both triads' misalignments: no campaign separates them. Two ways to live
+// with that:
+//   * body-frame model (recommended; docs/calibration.md): the accelerometer misalignment estimates only
+//     {yx, zx, zy} (host/model/body_frame.h). The mount rotation then takes the gauge freedom, is
+//     estimated, and the misalignments are the intrinsic ones, immune to fixture errors.
+//   * full 6+6 misalignments: the mount rotation is fixed at zero, and the misalignments are relative to
+//     the platform, carrying whatever mount and inner-axis errors the fixture has.
+// Nuisance parameters found in an unobservable direction of the information at the start are fixed at
+// zero (reported in `fixed`), the innermost axis's first; a direction with no nuisance parameter in it is
+// an error as in every other mode.
 #pragma once
 
 #include <string>
@@ -26,13 +33,16 @@
 namespace imuforge::solver {
 
 struct FixtureErrorsOptions {
-  bool mount = false;  // also estimate fixture.mount.rx|ry|rz (only separable without full misalignments)
-  int max_iterations = 20;
+  bool mount = true;  // also estimate fixture.mount.rx|ry|rz (the gauge fixes it under full misalignments)
+  int max_iterations = 50;
   // Scaled-information eigenvalue (relative to the largest) below which a direction counts as
   // unobservable when choosing which nuisance parameters to fix. Looser than the rank test of the final
   // solve: tilts of the inner axis are equivalent, to first order, to a mount rotation plus a zero offset
   // of the next axis, and are separable only through second-order terms (variance inflation > 100²).
   double gauge_tolerance = 1e-4;
+  // Nuisance parameters stated to be zero (a measured, trusted fixture property), e.g.
+  // "fixture.axis0.tilt_a". They are left out of the estimation; listed in FixtureErrorsResult.
+  std::vector<std::string> assume_zero;
 };
 
 struct FixtureErrorsResult {
@@ -42,13 +52,15 @@ struct FixtureErrorsResult {
   long long samples = 0;
   std::vector<std::string> nuisance_names;  // free: fixture.axis<i>.tilt_a|tilt_b|zero, fixture.mount.r*
   std::vector<std::string> fixed;           // nuisance fixed at 0 by the gauge (see above)
+  std::vector<std::string> assumed_zero;    // FixtureErrorsOptions::assume_zero
+  bool mount_fixed = false;                 // platform convention: misalignments include the mount rotation
   int iterations = 0;
 };
 
 FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& campaign,
                                          const FixtureErrorsOptions& opt = {});
-// Convenience for the command: loads the campaign; "fixture_nuisance": {"mount": true} in the model's
-// extra section turns the mount rotation on.
+// Convenience for the command: loads the campaign; "fixture_nuisance": {"mount": false} in the model's
+// extra section keeps the mount rotation out of the nuisance set (it is in by default).
 FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const std::string& campaign_path);
 
 }  // namespace imuforge::solver
