@@ -1,9 +1,11 @@
 // `imuforge solve`: calibration from a log (docs/calibration.md).
+#include <algorithm>
 #include <CLI/CLI.hpp>
 
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -160,6 +162,13 @@ int run_solve(int argc, char** argv) {
 
   if (a.mode == "reference-free") {
     if (a.method == "traditional") throw SolverError("the traditional method needs a fixture (six positions, CW/CCW)");
+    for (const auto& me : spec.effects)
+      if (me.effect == model::Effect::kTempRate)
+        throw SolverError(std::string("reference-free mode cannot estimate ") + model::sensor_name(me.sensor) +
+                          ".temp_rate: the mode has no temperature model (its hand-held recordings are short, at "
+                          "nearly constant temperature or without temp_C, so r*dT/dt is not observable, and "
+                          "during a static pose it would be indistinguishable from the bias); estimate temp_rate in "
+                          "fixture mode from a campaign with temperature ramps (docs/calibration.md)");
     RawRecording rec = read_recording(log);
     ReferenceFreeOptions rfo;
     rfo.window_s = a.static_window_s;
@@ -180,22 +189,27 @@ int run_solve(int argc, char** argv) {
                                    {"gravity_rms_after_mps2", r.gravity_rms_after},
                                    {"gravity_direction_rms_before", r.rotation_rms_before},
                                    {"gravity_direction_rms_after", r.rotation_rms_after},
+                                   {"transitions_used", r.transitions_used},
+                                   {"transitions_clipped", r.transitions_clipped},
                                    {"gauge_fixed_zero", r.gauge_fixed}};
     std::printf("reference-free: %zu static poses (k=%.0f), gravity %.5f m/s² (%s)\n", r.intervals.size(),
                 r.threshold_k, r.gravity_mps2, rec.gravity_source.c_str());
     std::printf("  gravity-magnitude residual RMS: before %.4e m/s², after %.4e m/s²\n", r.gravity_rms_before,
                 r.gravity_rms_after);
-    std::printf("  gravity-direction residual RMS across rotations: before %.4e, after %.4e\n", r.rotation_rms_before,
-                r.rotation_rms_after);
+    std::printf("  gravity-direction residual RMS across rotations: before %.4e, after %.4e (%d transitions; %d left "
+                "out: gyro clipped at full scale)\n", r.rotation_rms_before, r.rotation_rms_after, r.transitions_used,
+                r.transitions_clipped);
     if (!a.rotation_check.empty()) {
       io::LogReader l2(a.rotation_check);
       RawRecording r2 = read_recording(l2);
-      const RotationCheck rc = rotation_check(r2, triad_from_estimate(r.estimate, "gyro"));
-      std::printf("  rotation check (%s): nominal %.3f°, calibrated %.3f° about [%.3f %.3f %.3f]\n",
-                  a.rotation_check.c_str(), rc.angle_nominal_deg, rc.angle_deg, rc.axis.x(), rc.axis.y(), rc.axis.z());
+      const RotationCheck rc = rotation_check(r2, r.estimate);
+      std::printf("  rotation check (%s): nominal %.3f°, calibrated %.3f° ± %.3f° about [%.3f %.3f %.3f]\n",
+                  a.rotation_check.c_str(), rc.angle_nominal_deg, rc.angle_deg, rc.angle_sigma_deg, rc.axis.x(),
+                  rc.axis.y(), rc.axis.z());
       res.extra["rotation_check"] = {{"log", a.rotation_check},
                                      {"angle_nominal_deg", rc.angle_nominal_deg},
                                      {"angle_calibrated_deg", rc.angle_deg},
+                                     {"angle_calibrated_sigma_deg", rc.angle_sigma_deg},
                                      {"axis", {rc.axis.x(), rc.axis.y(), rc.axis.z()}}};
     }
     print_estimate(res.estimate, true);
@@ -208,10 +222,17 @@ int run_solve(int argc, char** argv) {
     res.noise_sigma = r.noise_sigma;
     res.noise_source = "static";
     res.samples = r.samples;
-    res.extra["fixture_errors"] = {{"nuisance", r.nuisance_names}, {"fixed_by_gauge", r.fixed}, {"iterations", r.iterations}};
+    const bool mount_free = std::count_if(r.nuisance_names.begin(), r.nuisance_names.end(), [](const std::string& n) {
+                              return n.rfind("fixture.mount.", 0) == 0;
+                            }) == 3;
+    // Which frame the misalignments are in follows from the gauge (fixture_errors.h).
+    const char* frame = mount_free ? "body: the frame the model's triangular misalignment defines (mount rotation estimated)"
+                                   : "platform: the mount rotation is fixed at zero, misalignments include it";
+    res.extra["fixture_errors"] = {{"nuisance", r.nuisance_names}, {"fixed_by_gauge", r.fixed},
+                                   {"iterations", r.iterations}, {"misalignment_frame", frame}};
     if (!r.fixed.empty())
-      std::printf("fixture+errors: fixed at 0 (inseparable from the misalignments): %s\n",
-                  nlohmann::json(r.fixed).dump().c_str());
+      std::printf("fixture+errors: fixed at 0 (inseparable from others): %s\n", nlohmann::json(r.fixed).dump().c_str());
+    std::printf("fixture+errors: misalignment frame: %s\n", frame);
     print_estimate(res.estimate, true);
   } else {
     // fixture (inverse or traditional), optionally online
@@ -272,9 +293,13 @@ int run_solve(int argc, char** argv) {
     if (oc) {
       const Estimate rec = oc->estimate();
       double worst = 0;
-      for (size_t i = 0; i < rec.names.size(); ++i)
-        worst = std::max(worst, std::abs(rec.value[static_cast<long>(i)] - sol.estimate.value[static_cast<long>(i)]) /
-                                    sol.estimate.sigma()[static_cast<long>(i)]);
+      // By name: per-plateau slots are matched to the batch's (they coincide after the last segment).
+      for (size_t i = 0; i < rec.names.size(); ++i) {
+        const int k = have_inverse ? sol.estimate.index_of(rec.names[i]) : -1;
+        worst = k < 0 ? std::numeric_limits<double>::infinity()
+                      : std::max(worst, std::abs(rec.value[static_cast<long>(i)] - sol.estimate.value[k]) /
+                                            sol.estimate.sigma()[k]);
+      }
       std::printf("online: %d segments; recursive vs batch: max |Δ|/σ = %.2e\n", oc->segments(), worst);
       if (!a.stop_sigma.empty()) {
         if (first_met >= 0) std::printf("online: every σ meets the spec from segment %d on\n", first_met);

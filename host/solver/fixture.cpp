@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <tuple>
 
 namespace imuforge::solver {
 
@@ -18,11 +19,77 @@ constexpr double kPlateauTolerance_C = 3.0;
 // The regressors are taken at the block mean; the error this leaves is O(Δu²/u²) < 1e-7 relative.
 constexpr double kBlockTolF_mps2 = 2e-3;
 constexpr double kBlockTolW_rad_s = 2e-4;
+// Blocks whose die temperature spans more than this feed the static noise estimate only as a fallback.
+constexpr double kNoiseBlockSpan_C = 1.0;
+// Degrees of freedom the dwell-only pool needs before it is preferred.
+constexpr long long kNoiseMinDof = 100;
 
 bool is_temperature_effect(Effect e) {
   return e == Effect::kBiasTemp || e == Effect::kScaleTemp || e == Effect::kMisalignTemp;
 }
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------------
+// Streaming centred difference for Ṫ (same definition as model::temp_rate_centered; test
+// FixtureMode.StreamingTempRateEqualsBatchDefinition checks they agree bit for bit).
+
+CenteredTempRate::CenteredTempRate(double window_s) : window_s_(window_s) {
+  if (!(window_s > 0) || !std::isfinite(window_s))
+    throw SolverError("dTdt_window_s must be a positive number of seconds");
+}
+
+void CenteredTempRate::release(std::size_t i, double t_hi, double T_hi) {
+  const double t_i = rows_[i].t_s;
+  // hist_ holds (t, T) from the oldest pending row's lower window edge on; rows after i need nothing
+  // older than t_i − window, so trimming here keeps memory within one ±window span.
+  while (hist_.size() > 1 && hist_.front().first < t_i - window_s_) hist_.pop_front();
+  const double t_lo = hist_.front().first, T_lo = hist_.front().second;
+  const double dt = t_hi - t_lo;
+  tdot_.push_back(dt > 0 && !std::isnan(T_hi) && !std::isnan(T_lo) ? (T_hi - T_lo) / dt : 0.0);
+}
+
+void CenteredTempRate::push(const io::LogRow& row) {
+  if (closed_) throw SolverError("CenteredTempRate::push after close()");
+  if (!std::isfinite(row.t_s))
+    throw SolverError("log row after t=" + std::to_string(last_t_) + " s has a non-finite time stamp");
+  if (row.t_s < last_t_)
+    throw SolverError("log time goes backwards (" + std::to_string(row.t_s) + " s after " + std::to_string(last_t_) +
+                      " s): dT/dt needs rows in time order");
+  // Rows whose upper window edge this row passes are final: their last row at ≤ t_i + window is the
+  // previous row (it did not release them when it arrived, so its t ≤ t_i + window).
+  while (n_ready_ < rows_.size() && rows_[n_ready_].t_s + window_s_ < row.t_s) {
+    release(n_ready_, hist_.back().first, hist_.back().second);
+    ++n_ready_;
+  }
+  if (rows_.size() >= kMaxRows)
+    throw SolverError("dT/dt window of +-" + std::to_string(window_s_) + " s holds more than " +
+                      std::to_string(kMaxRows) + " rows (time stamps stuck at " + std::to_string(row.t_s) +
+                      " s?); reduce \"dTdt_window_s\" in the model file");
+  hist_.emplace_back(row.t_s, row.temp_C);
+  rows_.push_back(row);
+  last_t_ = row.t_s;
+}
+
+void CenteredTempRate::close() {
+  closed_ = true;
+  while (n_ready_ < rows_.size()) {
+    release(n_ready_, hist_.back().first, hist_.back().second);
+    ++n_ready_;
+  }
+}
+
+bool CenteredTempRate::pop(io::LogRow& row, double& Tdot_C_s) {
+  if (n_ready_ == 0) return false;
+  row = rows_.front();
+  Tdot_C_s = tdot_.front();
+  rows_.pop_front();
+  tdot_.pop_front();
+  --n_ready_;
+  if (rows_.empty() && closed_) hist_.clear();
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------------
 
 const char* channel_name(int c) {
   static const char* n[kNumChannels] = {"accel.x", "accel.y", "accel.z", "gyro.x", "gyro.y", "gyro.z"};
@@ -51,27 +118,46 @@ FixtureAccumulator::FixtureAccumulator(const model::ModelSpec& spec, const io::L
   lsb_[1] = meta.gyro_lsb_rad_s;
   const std::vector<model::ParamId> ids = spec.parameters();
   if (ids.empty()) throw SolverError("the model estimates no deterministic parameter");
+  dTdt_window_s_ = model::ThermalConstants{}.dTdt_window_s;
+  if (spec.extra.is_object()) {
+    const auto w = spec.extra.find("dTdt_window_s");
+    if (w != spec.extra.end()) {
+      if (!w->is_number() || !(w->get<double>() > 0) || !std::isfinite(w->get<double>()))
+        throw SolverError("model \"dTdt_window_s\" must be a positive number of seconds");
+      dTdt_window_s_ = w->get<double>();
+    }
+  }
+  bool has_rate = false;
   for (size_t i = 0; i < ids.size(); ++i) {
     const auto& pi = model::param_info(ids[i]);
     const int s = static_cast<int>(pi.sensor);
     bool pp = false;
     for (const auto& e : spec.effects)
       if (e.sensor == pi.sensor && e.effect == pi.effect) pp = e.per_plateau;
-    if (pi.effect == Effect::kTempRate)
-      throw SolverError(std::string("effect ") + pi.name +
-                        ": temp_rate needs dT/dt, which the streaming fixture solver does not derive yet; "
-                        "remove it from the model");
+    has_rate = has_rate || pi.effect == Effect::kTempRate;
     ids_[static_cast<size_t>(s)].push_back(ids[i]);
     per_plateau_[static_cast<size_t>(s)].push_back(pp);
     spec_pos_[static_cast<size_t>(s)].push_back(static_cast<int>(i));
     any_per_plateau_ = any_per_plateau_ || pp;
-    needs_temp_ = needs_temp_ || pp || is_temperature_effect(pi.effect);
+    needs_temp_ = needs_temp_ || pp || is_temperature_effect(pi.effect) || pi.effect == Effect::kTempRate;
   }
+  if (has_rate) tdot_.emplace(dTdt_window_s_);
   for (int c = 0; c < kNumChannels; ++c) seg_stats_[static_cast<size_t>(c)].reset(static_cast<int>(ids_[static_cast<size_t>(c / 3)].size()));
 }
 
 void FixtureAccumulator::add(const io::LogRow& row) {
   if (finished_) throw SolverError("FixtureAccumulator::add after finish()");
+  if (!tdot_) {
+    process(row, 0.0);
+    return;
+  }
+  tdot_->push(row);
+  io::LogRow r;
+  double q = 0.0;
+  while (tdot_->pop(r, q)) process(r, q);
+}
+
+void FixtureAccumulator::process(const io::LogRow& row, double Tdot_C_s) {
   const double d = hyst_.update(row.temp_C);
   if (!row.has_ref || row.segment < 0) {
     flush_block();
@@ -110,7 +196,11 @@ void FixtureAccumulator::add(const io::LogRow& row) {
     in_block_ = true;
     block_.reset(T);
     block_u_.setZero();
+    block_q_ = RateMoments{};
+    block_T_min_ = block_T_max_ = T;
   }
+  block_T_min_ = std::min(block_T_min_, T);
+  block_T_max_ = std::max(block_T_max_, T);
   for (int k = 0; k < 3; ++k) {
     block_u_[k] += row.f_ref[k];
     block_u_[3 + k] += row.w_ref[k];
@@ -124,6 +214,17 @@ void FixtureAccumulator::add(const io::LogRow& row) {
     seg_y_sq_[c] += y * y;
   }
   block_.add(T, z);
+  if (tdot_) {
+    // Same s as BlockMoments::add, so the Ṫ cross moments pair with its Σ s^k.
+    const double sb = (T - block_.T0_C) / kBlockTempScale;
+    const double q = Tdot_C_s;
+    block_q_.qs[0] += q;
+    block_q_.qs[1] += q * sb;
+    block_q_.qs[2] += q * sb * sb;
+    block_q_.qs[3] += q * sb * sb * sb;
+    block_q_.qq += q * q;
+    for (int c = 0; c < kNumChannels; ++c) block_q_.qz[c] += q * z[c];
+  }
   seg_sum_.n += 1;
   seg_sum_.T_C += T;
   for (int k = 0; k < 3; ++k) {
@@ -137,6 +238,7 @@ void FixtureAccumulator::flush_block() {
   if (!in_block_) return;
   in_block_ = false;
   if (block_.n == 0) return;
+  const bool narrow = block_T_max_ - block_T_min_ <= kNoiseBlockSpan_C;
   const Eigen::Matrix4d S = block_.S();
   const Eigen::Matrix4d& v2c = node_to_coeff();
   model::MeasureInput in;
@@ -149,13 +251,31 @@ void FixtureAccumulator::flush_block() {
   for (int s = 0; s < 2; ++s) {
     const auto& ids = ids_[static_cast<size_t>(s)];
     const int nl = static_cast<int>(ids.size());
-    // node values of the Jacobian rows: jn[node] is 3 × nl
+    // node values of the Jacobian rows: jn[node] is 3 × nl, at Ṫ = 0
     std::array<Eigen::Matrix<double, 3, Eigen::Dynamic>, kNumNodes + 1> jn;
+    in.Tdot_C_s = 0.0;
     for (int k = 0; k <= kNumNodes; ++k) {
       const double node = k < kNumNodes ? kNodes[static_cast<size_t>(k)] : kCheckNode;
       in.T_C = block_.T0_C + node * kBlockTempScale;
       jn[static_cast<size_t>(k)].resize(3, nl);
       if (nl) model::regressors(static_cast<Sensor>(s), ids, in, spec_.T_ref_C, jn[static_cast<size_t>(k)]);
+    }
+    // The Ṫ part of the regressors, e = J(Ṫ = 1) − J(Ṫ = 0). Exact compression needs it independent of T
+    // (true for temp_rate, whose regressor is Ṫ itself): checked at every node.
+    Eigen::Matrix<double, 3, Eigen::Dynamic> jq = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, nl);
+    if (tdot_ && nl) {
+      Eigen::Matrix<double, 3, Eigen::Dynamic> j1(3, nl);
+      for (int k = 0; k <= kNumNodes; ++k) {
+        const double node = k < kNumNodes ? kNodes[static_cast<size_t>(k)] : kCheckNode;
+        in.T_C = block_.T0_C + node * kBlockTempScale;
+        in.Tdot_C_s = 1.0;
+        model::regressors(static_cast<Sensor>(s), ids, in, spec_.T_ref_C, j1);
+        const Eigen::Matrix<double, 3, Eigen::Dynamic> e = j1 - jn[static_cast<size_t>(k)];
+        if (k == 0) jq = e;
+        else if ((e - jq).cwiseAbs().maxCoeff() > 1e-12 * std::max(1.0, jq.cwiseAbs().maxCoeff()))
+          throw SolverError("model regressors couple dT/dt with temperature; the block compression would be inexact");
+      }
+      in.Tdot_C_s = 0.0;
     }
     for (int j = 0; j < 3; ++j) {
       const int c = 3 * s + j;
@@ -178,13 +298,28 @@ void FixtureAccumulator::flush_block() {
       if (nl) {
         cs.a.noalias() += bc * S * bc.transpose();
         cs.b.noalias() += bc * zs;
+        if (tdot_) {
+          // φ = B m(s) + e q:  Σφφᵀ += B Qs eᵀ + e Qsᵀ Bᵀ + Σq² e eᵀ,  Σφz += e Σqz  (exact).
+          const Eigen::VectorXd e = jq.row(j).transpose();
+          const Eigen::Vector4d qs(block_q_.qs[0], block_q_.qs[1], block_q_.qs[2], block_q_.qs[3]);
+          const Eigen::VectorXd bq = bc * qs;
+          cs.a.noalias() += bq * e.transpose() + e * bq.transpose() + block_q_.qq * e * e.transpose();
+          cs.b.noalias() += block_q_.qz[c] * e;
+        }
       }
       cs.zz += block_.zz[static_cast<size_t>(c)];
       cs.n += block_.n;
-      if (block_.n >= 3) var_num_[c] += block_.within_variance(c) * static_cast<double>(block_.n - 2);
+      if (block_.n >= 3) {
+        const double v = block_.within_variance(c) * static_cast<double>(block_.n - 2);
+        var_num_[1][c] += v;
+        if (narrow) var_num_[0][c] += v;
+      }
     }
   }
-  if (block_.n >= 3) var_den_ += block_.n - 2;
+  if (block_.n >= 3) {
+    var_den_[1] += block_.n - 2;
+    if (narrow) var_den_[0] += block_.n - 2;
+  }
 }
 
 int FixtureAccumulator::plateau_of(double T_C) {
@@ -230,6 +365,12 @@ void FixtureAccumulator::flush_segment() {
 
 void FixtureAccumulator::finish() {
   if (finished_) return;
+  if (tdot_) {
+    tdot_->close();
+    io::LogRow r;
+    double q = 0.0;
+    while (tdot_->pop(r, q)) process(r, q);
+  }
   flush_block();
   flush_segment();
   finished_ = true;
@@ -251,25 +392,52 @@ void FixtureAccumulator::finish() {
   if (samples_used_ == 0) throw SolverError("the log has no sample with a fixture reference inside a dwell");
 }
 
-int FixtureAccumulator::slot(int sensor, int local, int plateau_sorted) const {
+std::vector<int> FixtureAccumulator::plateau_ranks() const {
+  const size_t np = plateau_n_.size();
+  std::vector<int> order(np);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return plateau_T_sum_[static_cast<size_t>(a)] / static_cast<double>(plateau_n_[static_cast<size_t>(a)]) <
+           plateau_T_sum_[static_cast<size_t>(b)] / static_cast<double>(plateau_n_[static_cast<size_t>(b)]);
+  });
+  std::vector<int> rank(np);
+  for (size_t r = 0; r < np; ++r) rank[static_cast<size_t>(order[r])] = static_cast<int>(r);
+  return rank;
+}
+
+int FixtureAccumulator::slot(int sensor, int local, int plateau_rank, int np) const {
   // Slots follow spec order; a per-plateau parameter takes one slot per plateau.
   const int target = spec_pos_[static_cast<size_t>(sensor)][static_cast<size_t>(local)];
-  const int np = static_cast<int>(plateaus_sorted_.size());
   int base = 0;
-  // Walk spec positions in order; counts are small (≤ a few hundred), and this runs per solve, not per sample.
+  // Walk spec positions in order; counts are small (≤ a few hundred), and this runs per segment or
+  // solve, not per sample.
   std::vector<std::pair<int, bool>> order;  // (spec position, per_plateau)
   for (int s = 0; s < 2; ++s)
     for (size_t i = 0; i < spec_pos_[static_cast<size_t>(s)].size(); ++i)
       order.emplace_back(spec_pos_[static_cast<size_t>(s)][i], per_plateau_[static_cast<size_t>(s)][i]);
   std::sort(order.begin(), order.end());
   for (const auto& o : order) {
-    if (o.first == target) return o.second ? base + plateau_sorted : base;
+    if (o.first == target) {
+      if (o.second && (plateau_rank < 0 || plateau_rank >= np)) throw SolverError("internal: plateau rank out of range");
+      return o.second ? base + plateau_rank : base;
+    }
     base += o.second ? np : 1;
   }
   throw SolverError("internal: parameter slot not found");
 }
 
-std::vector<std::string> FixtureAccumulator::names() const {
+std::vector<int> FixtureAccumulator::plateau_slots(int plateau_rank, int np) const {
+  std::vector<int> out;
+  for (int s = 0; s < 2; ++s)
+    for (size_t i = 0; i < per_plateau_[static_cast<size_t>(s)].size(); ++i)
+      if (per_plateau_[static_cast<size_t>(s)][i]) out.push_back(slot(s, static_cast<int>(i), plateau_rank, np));
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<std::string> FixtureAccumulator::names() const { return slot_names(num_plateaus()); }
+
+std::vector<std::string> FixtureAccumulator::slot_names(int np) const {
   std::vector<std::tuple<int, model::ParamId, bool>> order;
   for (int s = 0; s < 2; ++s)
     for (size_t i = 0; i < ids_[static_cast<size_t>(s)].size(); ++i)
@@ -282,7 +450,7 @@ std::vector<std::string> FixtureAccumulator::names() const {
     if (!pp) {
       out.push_back(nm);
     } else {
-      for (size_t p = 0; p < plateaus_sorted_.size(); ++p) out.push_back(nm + "@plateau" + std::to_string(p));
+      for (int p = 0; p < np; ++p) out.push_back(nm + "@plateau" + std::to_string(p));
     }
   }
   return out;
@@ -291,6 +459,7 @@ std::vector<std::string> FixtureAccumulator::names() const {
 NormalEquations FixtureAccumulator::normal_equations(const Sigma6& sigma) const {
   if (!finished_) throw SolverError("FixtureAccumulator: call finish() first");
   const int n = static_cast<int>(names().size());
+  const int np = num_plateaus();
   NormalEquations ne(n);
   for (size_t p = 0; p < plateau_stats_.size(); ++p) {
     const int ps = discovery_to_sorted_[p];
@@ -300,7 +469,7 @@ NormalEquations FixtureAccumulator::normal_equations(const Sigma6& sigma) const 
       const double w = 1.0 / (sigma[static_cast<size_t>(c)] * sigma[static_cast<size_t>(c)]);
       const int nl = static_cast<int>(cs.b.size());
       std::vector<int> sl(static_cast<size_t>(nl));
-      for (int i = 0; i < nl; ++i) sl[static_cast<size_t>(i)] = slot(s, i, ps);
+      for (int i = 0; i < nl; ++i) sl[static_cast<size_t>(i)] = slot(s, i, ps, np);
       for (int i = 0; i < nl; ++i) {
         ne.rhs[sl[static_cast<size_t>(i)]] += w * cs.b[i];
         for (int k = 0; k < nl; ++k) ne.info(sl[static_cast<size_t>(i)], sl[static_cast<size_t>(k)]) += w * cs.a(i, k);
@@ -313,19 +482,31 @@ NormalEquations FixtureAccumulator::normal_equations(const Sigma6& sigma) const 
 }
 
 NormalEquations FixtureAccumulator::segment_normal_equations(const ChannelSet& seg, const Sigma6& sigma) const {
-  if (any_per_plateau_) throw SolverError("per-plateau parameters cannot be estimated recursively (plateaus are only known at the end)");
-  int n = 0;
-  for (int s = 0; s < 2; ++s) n += static_cast<int>(ids_[static_cast<size_t>(s)].size());
+  if (any_per_plateau_)
+    throw SolverError("per-plateau model: give the segment's plateau (segment_normal_equations(seg, sigma, plateau))");
+  return segment_normal_equations(seg, sigma, -1);
+}
+
+NormalEquations FixtureAccumulator::segment_normal_equations(const ChannelSet& seg, const Sigma6& sigma,
+                                                             int plateau) const {
+  const int np = plateaus_discovered();
+  int rank = -1;
+  if (any_per_plateau_) {
+    if (plateau < 0 || plateau >= np) throw SolverError("segment_normal_equations: unknown plateau index");
+    rank = plateau_ranks()[static_cast<size_t>(plateau)];
+  }
+  const int n = static_cast<int>(slot_names(np).size());
   NormalEquations ne(n);
   for (int c = 0; c < kNumChannels; ++c) {
     const int s = c / 3;
     const ChannelStats& cs = seg[static_cast<size_t>(c)];
     const double w = 1.0 / (sigma[static_cast<size_t>(c)] * sigma[static_cast<size_t>(c)]);
     const int nl = static_cast<int>(cs.b.size());
+    std::vector<int> sl(static_cast<size_t>(nl));
+    for (int i = 0; i < nl; ++i) sl[static_cast<size_t>(i)] = slot(s, i, rank, np);
     for (int i = 0; i < nl; ++i) {
-      const int si = spec_pos_[static_cast<size_t>(s)][static_cast<size_t>(i)];
-      ne.rhs[si] += w * cs.b[i];
-      for (int k = 0; k < nl; ++k) ne.info(si, spec_pos_[static_cast<size_t>(s)][static_cast<size_t>(k)]) += w * cs.a(i, k);
+      ne.rhs[sl[static_cast<size_t>(i)]] += w * cs.b[i];
+      for (int k = 0; k < nl; ++k) ne.info(sl[static_cast<size_t>(i)], sl[static_cast<size_t>(k)]) += w * cs.a(i, k);
     }
     ne.cost += w * cs.zz;
     ne.n_obs += cs.n;
@@ -334,10 +515,11 @@ NormalEquations FixtureAccumulator::segment_normal_equations(const ChannelSet& s
 }
 
 Sigma6 FixtureAccumulator::static_noise_sigma() const {
-  if (var_den_ < 2) throw SolverError("not enough samples in dwells to estimate the noise");
+  const int pool = var_den_[0] >= kNoiseMinDof ? 0 : 1;
+  if (var_den_[pool] < 2) throw SolverError("not enough samples in dwells to estimate the noise");
   Sigma6 s{};
   for (int c = 0; c < kNumChannels; ++c) {
-    s[static_cast<size_t>(c)] = std::sqrt(var_num_[c] / static_cast<double>(var_den_));
+    s[static_cast<size_t>(c)] = std::sqrt(var_num_[pool][c] / static_cast<double>(var_den_[pool]));
     if (!(s[static_cast<size_t>(c)] > 0))
       throw SolverError(std::string("channel ") + channel_name(c) + " shows no noise at all within dwells; "
                         "give the noise σ in the model file (\"noise_sigma\")");
@@ -354,7 +536,7 @@ Sigma6 FixtureAccumulator::residual_rms(const Eigen::VectorXd& theta) const {
       const ChannelStats& cs = plateau_stats_[p][static_cast<size_t>(c)];
       const int nl = static_cast<int>(cs.b.size());
       Eigen::VectorXd th(nl);
-      for (int i = 0; i < nl; ++i) th[i] = theta[slot(c / 3, i, ps)];
+      for (int i = 0; i < nl; ++i) th[i] = theta[slot(c / 3, i, ps, num_plateaus())];
       out[static_cast<size_t>(c)] += cs.zz - 2 * th.dot(cs.b) + th.dot(cs.a * th);
       n[static_cast<size_t>(c)] += cs.n;
     }

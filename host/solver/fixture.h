@@ -10,8 +10,11 @@
 #pragma once
 
 #include <array>
+#include <deque>
 #include <functional>
+#include <limits>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -58,27 +61,79 @@ struct PlateauInfo {
   long long samples = 0;
 };
 
+// Streaming Ṫ (°C/s) from the logged temp_C, with exactly the definition of docs/error-model.md and
+// model::temp_rate_centered(): for the row at t_i, the slope between the first row at ≥ t_i − window and
+// the last row at ≤ t_i + window (one-sided at the log's ends); 0 when either end has no temperature.
+// Every row is delayed until the first row later than t_i + window arrives (or close() is called), so
+// memory is bounded by the rows in one ±window span, never by the log length.
+//   push(row); while (pop(row, Tdot)) use(row, Tdot);   …   close(); while (pop(row, Tdot)) …
+class CenteredTempRate {
+ public:
+  explicit CenteredTempRate(double window_s);
+  // Throws SolverError if t is not finite or goes backwards, or the window holds more than kMaxRows rows.
+  // Amortised O(1).
+  void push(const io::LogRow& row);
+  // End of the log: every pending row's Ṫ becomes final.
+  void close();
+  // Next row (time order) whose Ṫ is final; false if none yet.
+  bool pop(io::LogRow& row, double& Tdot_C_s);
+  double window_s() const { return window_s_; }
+  std::size_t pending() const { return rows_.size(); }
+  // 20 s at 200 kHz: far above any IMU log; beyond it timestamps are stuck or the window is absurd.
+  static constexpr std::size_t kMaxRows = 4000000;
+
+ private:
+  void release(std::size_t i, double t_hi, double T_hi);
+  double window_s_;
+  std::deque<io::LogRow> rows_;               // pending rows; the first n_ready_ have a final Ṫ
+  std::deque<double> tdot_;                   // Ṫ of the ready rows
+  std::size_t n_ready_ = 0;
+  std::deque<std::pair<double, double>> hist_;  // (t, T) of rows from the oldest pending one's t − window
+  double last_t_ = -std::numeric_limits<double>::infinity();
+  bool closed_ = false;
+};
+
 class FixtureAccumulator {
  public:
   FixtureAccumulator(const model::ModelSpec& spec, const io::LogMeta& meta);
 
   // Streams one row. Rows without a reference or outside a dwell (segment −1) only feed the hysteresis
-  // tracker: in motion, ω̇ and ḟ are not in the log, so those rows cannot be modelled exactly.
+  // tracker and the Ṫ estimate: in motion, ω̇ and ḟ are not in the log, so those rows cannot be
+  // modelled exactly. With temp_rate in the model every row is processed dTdt_window_s late (its Ṫ
+  // needs the temperatures up to t + window), so on_segment fires that much later.
   void add(const io::LogRow& row);
   // Flushes the last block and segment. Must be called before the results below.
   void finish();
 
   // Called after every completed segment with its statistics (in local space, unweighted), in log order.
+  // Before finish(), SegmentSummary::plateau is the plateau's DISCOVERY index (see plateau_ranks()).
   std::function<void(const SegmentSummary&, const ChannelSet&)> on_segment;
 
   // Parameter slots: spec parameters, with per-plateau ones expanded to one slot per plateau
-  // (named "<name>@plateau<k>", plateaus sorted by temperature).
+  // (named "<name>@plateau<k>", plateaus sorted by temperature). Before finish(): over the plateaus
+  // discovered so far (k then ranks them by their current mean temperature).
   std::vector<std::string> names() const;
   const std::vector<PlateauInfo>& plateaus() const { return plateaus_sorted_; }
   bool has_per_plateau() const { return any_per_plateau_; }
+  bool has_temp_rate() const { return tdot_.has_value(); }
+  // Half window of the centred difference for Ṫ (model file "dTdt_window_s", default 10 s).
+  double dTdt_window_s() const { return dTdt_window_s_; }
+  // Plateaus discovered so far, and for each (by discovery index) its rank by mean temperature. Ranks of
+  // existing plateaus never swap (a segment joins the nearest plateau, so means cannot cross); a new
+  // plateau shifts the ranks above it by one.
+  int plateaus_discovered() const { return static_cast<int>(plateau_n_.size()); }
+  std::vector<int> plateau_ranks() const;
+  // Slot names / slot index with `np` plateaus (rank in 0..np−1). names() == slot_names(plateaus so far).
+  std::vector<std::string> slot_names(int np) const;
+  int slot(int sensor, int local, int plateau_rank, int np) const;
+  // Slots (ascending) of the per-plateau parameters of the plateau with this rank, among np plateaus.
+  std::vector<int> plateau_slots(int plateau_rank, int np) const;
   // Weighted normal equations in slot space.
   NormalEquations normal_equations(const Sigma6& sigma) const;
-  // Weighted information of one segment's statistics (no per-plateau parameters allowed).
+  // Weighted information of one segment's statistics, in the slot space of the plateaus discovered so
+  // far (slot_names(plateaus_discovered())); `plateau` is the segment's discovery index
+  // (SegmentSummary::plateau in on_segment). The overload without it refuses per-plateau models.
+  NormalEquations segment_normal_equations(const ChannelSet& seg, const Sigma6& sigma, int plateau) const;
   NormalEquations segment_normal_equations(const ChannelSet& seg, const Sigma6& sigma) const;
   // Pooled within-block standard deviation per channel (static-segment noise estimate).
   Sigma6 static_noise_sigma() const;
@@ -91,10 +146,11 @@ class FixtureAccumulator {
   const std::vector<model::ParamId>& sensor_ids(model::Sensor s) const { return ids_[static_cast<int>(s)]; }
 
  private:
+  void process(const io::LogRow& row, double Tdot_C_s);
   void flush_block();
   void flush_segment();
   int plateau_of(double T_C);
-  int slot(int sensor, int local, int plateau_sorted) const;
+  int num_plateaus() const { return finished_ ? static_cast<int>(plateaus_sorted_.size()) : plateaus_discovered(); }
 
   model::ModelSpec spec_;
   double lsb_[2];
@@ -104,6 +160,16 @@ class FixtureAccumulator {
   bool any_per_plateau_ = false;
   bool needs_temp_ = false;
   model::HysteresisTracker hyst_;
+  double dTdt_window_s_ = 10.0;
+  std::optional<CenteredTempRate> tdot_;  // only when the model has temp_rate
+
+  // Ṫ moments of the current block, q = Ṫ: Σ q s^k (k ≤ 3), Σ q², per channel Σ q z. With them the
+  // temp_rate regressor (q on its axis) joins the block compression exactly: φ(s, q) = B m(s) + e q.
+  struct RateMoments {
+    double qs[4] = {};
+    double qq = 0.0;
+    double qz[kNumChannels] = {};
+  } block_q_;
 
   // Current block and segment.
   bool in_block_ = false;
@@ -123,8 +189,12 @@ class FixtureAccumulator {
   std::vector<PlateauInfo> plateaus_sorted_;
   std::vector<int> discovery_to_sorted_;
   std::map<int, SegmentSummary> segments_;
-  double var_num_[kNumChannels] = {};
-  long long var_den_ = 0;
+  // Within-block variance pools: [0] blocks whose die temperature spans ≤ kNoiseBlockSpan_C (dwells),
+  // [1] all blocks. A linear trend in T removes a dwell's drift, not the curvature of a ramp across tens
+  // of °C, so ramps and soaks after a step only count when there are too few dwells.
+  double var_num_[2][kNumChannels] = {};
+  long long var_den_[2] = {};
+  double block_T_min_ = 0.0, block_T_max_ = 0.0;
   long long samples_used_ = 0;
   bool finished_ = false;
 };

@@ -1,5 +1,6 @@
 #include "host/solver/online.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -67,19 +68,45 @@ SigmaCheck check_sigma(const Estimate& e, const SigmaSpec& spec) {
 
 OnlineCalibrator::OnlineCalibrator(const model::ModelSpec& spec, const io::LogMeta& meta, const Sigma6& noise_sigma)
     : acc_(spec, meta), sigma_(noise_sigma), srif_({}) {
-  if (acc_.has_per_plateau())
-    throw SolverError("online mode: per-plateau parameters are only defined once all plateaus are known; "
-                      "use a polynomial temperature model");
   for (int c = 0; c < kNumChannels; ++c)
     if (!(noise_sigma[static_cast<size_t>(c)] > 0))
       throw SolverError(std::string("online mode: noise sigma of ") + channel_name(c) + " must be positive");
   srif_ = SquareRootInformationFilter(acc_.names());
   acc_.on_segment = [this](const SegmentSummary& s, const ChannelSet& cs) {
-    const NormalEquations ne = acc_.segment_normal_equations(cs, sigma_);
+    grow_for_new_plateaus();
+    const NormalEquations ne = acc_.segment_normal_equations(cs, sigma_, s.plateau);
     srif_.add_information(ne.info, ne.rhs);
     ++n_segments_;
     if (on_update) on_update(s, srif_.estimate());
   };
+}
+
+void OnlineCalibrator::grow_for_new_plateaus() {
+  const int np = acc_.plateaus_discovered();
+  const int known = static_cast<int>(plateau_order_.size());
+  if (np == known) return;
+  const std::vector<int> rank = acc_.plateau_ranks();
+  std::vector<int> order(static_cast<size_t>(np));
+  for (int p = 0; p < np; ++p) order[static_cast<size_t>(rank[static_cast<size_t>(p)])] = p;
+  // The plateaus known before keep their relative order (means cannot cross, fixture.h): only then do
+  // the existing slots stay valid when new ones are inserted between them.
+  std::vector<int> old_order;
+  for (int p : order)
+    if (p < known) old_order.push_back(p);
+  if (old_order != plateau_order_) throw SolverError("internal: plateau temperature order changed during the run");
+  if (acc_.has_per_plateau()) {
+    // Insert the new plateaus' slots in ascending final position: each lands where the batch puts it.
+    std::vector<int> pos;
+    for (int p = known; p < np; ++p) {
+      const std::vector<int> sl = acc_.plateau_slots(rank[static_cast<size_t>(p)], np);
+      pos.insert(pos.end(), sl.begin(), sl.end());
+    }
+    std::sort(pos.begin(), pos.end());
+    const std::vector<std::string> names = acc_.slot_names(np);
+    for (int k : pos) srif_.insert_parameter(k, names[static_cast<size_t>(k)]);
+    srif_.rename(names);
+  }
+  plateau_order_ = order;
 }
 
 void OnlineCalibrator::add(const io::LogRow& row) { acc_.add(row); }

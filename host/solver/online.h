@@ -6,6 +6,10 @@
 //   Estimate e = oc.estimate();                           // any time: σ = +inf where not yet observable
 //   SigmaCheck c = check_sigma(e, spec_sigma);            // does every σ meet the spec?
 // After finish(), estimate() equals the batch solve_fixture() of the same rows within 1e-6 σ.
+// Per-plateau models: each newly discovered plateau adds its slots (zero prior information) to the
+// filter, placed and named as the batch does ("<name>@plateau<k>", k by mean temperature among the
+// plateaus seen so far), so names() can change between segments; at the end they equal the batch's.
+// temp_rate models: rows are processed dTdt_window_s late (Ṫ needs the temperatures after them).
 #pragma once
 
 #include <functional>
@@ -56,10 +60,13 @@ class OnlineCalibrator {
   const FixtureAccumulator& accumulator() const { return acc_; }
 
  private:
+  void grow_for_new_plateaus();
+
   FixtureAccumulator acc_;
   Sigma6 sigma_;
   SquareRootInformationFilter srif_;
   int n_segments_ = 0;
+  std::vector<int> plateau_order_;  // discovery indices sorted by temperature, as last seen
 };
 
 }  // namespace imuforge::solver

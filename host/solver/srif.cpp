@@ -61,6 +61,29 @@ void SquareRootInformationFilter::add_information(const Eigen::MatrixXd& h, cons
   add_rows(a, b);
 }
 
+void SquareRootInformationFilter::insert_parameter(int pos, std::string name) {
+  const int n = size();
+  if (pos < 0 || pos > n) throw SolverError("SRIF: insert position out of range");
+  Eigen::MatrixXd r = Eigen::MatrixXd::Zero(n + 1, n + 1);
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(n + 1);
+  // Old index k moves to k (< pos) or k + 1: entry (i, j) with i ≤ j keeps i' ≤ j', and row/column pos
+  // are zero, so [R z] stays upper triangular and still encodes the same information on the old slots.
+  const int a = pos, b = n - pos;
+  r.topLeftCorner(a, a) = r_.topLeftCorner(a, a);
+  r.topRightCorner(a, b) = r_.topRightCorner(a, b);
+  r.bottomRightCorner(b, b) = r_.bottomRightCorner(b, b);
+  z.head(a) = z_.head(a);
+  z.tail(b) = z_.tail(b);
+  r_ = std::move(r);
+  z_ = std::move(z);
+  names_.insert(names_.begin() + pos, std::move(name));
+}
+
+void SquareRootInformationFilter::rename(std::vector<std::string> names) {
+  if (names.size() != names_.size()) throw SolverError("SRIF: rename with a different number of names");
+  names_ = std::move(names);
+}
+
 Estimate SquareRootInformationFilter::estimate() const {
   const int n = size();
   if (complete()) {

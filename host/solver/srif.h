@@ -8,6 +8,7 @@
 // Use:
 //   SquareRootInformationFilter f(names);
 //   for each segment: f.add_information(H_s, g_s);  // or add_rows(A, b)
+//   f.insert_parameter(k, "x@plateau2");            // a new unknown appears (zero information)
 //   Estimate e = f.estimate();    // σ = +inf for parameters the data so far cannot determine
 #pragma once
 
@@ -28,6 +29,13 @@ class SquareRootInformationFilter {
   // A segment given as normal equations (H_s = Σ aᵢᵀaᵢ, g_s = Σ aᵢᵀbᵢ). Factored into ≤ n rows by an
   // eigen-decomposition (H_s may be singular: one segment rarely determines every parameter). O(n³).
   void add_information(const Eigen::MatrixXd& h, const Eigen::VectorXd& g);
+
+  // Grows the state by one parameter at index pos (0..size()) with zero prior information, e.g. a
+  // per-plateau slot when a new plateau is discovered. Inserting a zero row and column at the same
+  // index keeps R upper triangular, so the filter continues exactly. O(n²).
+  void insert_parameter(int pos, std::string name);
+  // Renames the parameters (same count), e.g. when plateau indices shift after an insertion.
+  void rename(std::vector<std::string> names);
 
   int size() const { return static_cast<int>(names_.size()); }
   const std::vector<std::string>& names() const { return names_; }

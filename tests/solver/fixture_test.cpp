@@ -1,8 +1,14 @@
 // Fixture mode on synthetic campaigns generated through the catalog's measurement function.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <fstream>
+#include <random>
+
 #include "host/model/sensor_model.h"
+#include "host/sim/simulator.h"
 #include "host/solver/fixture.h"
+#include "host/solver/online.h"
 #include "host/solver/srif.h"
 #include "host/solver/traditional.h"
 #include "tests/solver/synth.h"
@@ -133,4 +139,313 @@ TEST(FixtureMode, TraditionalMatchesInverseOnCleanData) {
     EXPECT_LT(std::abs(tr.estimate.value[long(i)] - truth.get(tr.estimate.names[i])), 6 * inv.estimate.sigma()[k])
         << tr.estimate.names[i];
   }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// temp_rate in fixture mode: streaming Ṫ and the extended block compression.
+
+TEST(FixtureMode, StreamingTempRateEqualsBatchDefinition) {
+  // Irregular time stamps, repeated stamps and missing temperatures: the streaming estimator must give
+  // exactly model::temp_rate_centered (the definition of docs/error-model.md), with bounded memory.
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u01(0, 1);
+  std::vector<double> t, T;
+  double tt = 0;
+  for (int i = 0; i < 3000; ++i) {
+    tt += u01(rng) < 0.05 ? 0.0 : 0.005 + 0.02 * u01(rng);
+    t.push_back(tt);
+    T.push_back(u01(rng) < 0.02 ? std::nan("") : 20 + 3 * std::sin(0.3 * tt) + 0.01 * u01(rng));
+  }
+  const double w = 0.35;
+  const std::vector<double> ref = model::temp_rate_centered(t, T, w);
+  CenteredTempRate ctr(w);
+  std::vector<double> got;
+  size_t max_pending = 0;
+  io::LogRow r, out;
+  double q = 0;
+  for (size_t i = 0; i < t.size(); ++i) {
+    r.t_s = t[i];
+    r.temp_C = T[i];
+    r.segment = static_cast<int>(i);
+    ctr.push(r);
+    max_pending = std::max(max_pending, ctr.pending());
+    while (ctr.pop(out, q)) {
+      ASSERT_EQ(out.segment, static_cast<int>(got.size()));  // time order kept
+      got.push_back(q);
+    }
+  }
+  ctr.close();
+  while (ctr.pop(out, q)) got.push_back(q);
+  ASSERT_EQ(got.size(), ref.size());
+  for (size_t i = 0; i < ref.size(); ++i) ASSERT_EQ(got[i], ref[i]) << i;
+  // At most one window's worth of rows is held (≥ 5 ms apart, apart from repeats: ~ 0.35/0.015·1.1).
+  EXPECT_LT(max_pending, 60u);
+  r.t_s = 1.0;
+  CenteredTempRate back(w);
+  back.push(r);
+  r.t_s = 0.5;
+  EXPECT_THROW(back.push(r), SolverError);
+}
+
+namespace {
+// Basic + thermal + temp_rate spec (model-thermal.json plus "temp_rate" on both triads, or without).
+model::ModelSpec thermal_rate_spec(bool with_rate) {
+  nlohmann::json j = nlohmann::json::parse(std::ifstream(IMUFORGE_SOURCE_DIR "/docs/examples/model-thermal.json"));
+  if (with_rate) {
+    j["effects"]["accel.temp_rate"] = nlohmann::json::object();
+    j["effects"]["gyro.temp_rate"] = nlohmann::json::object();
+  }
+  return model::model_spec_from_json(j);
+}
+}  // namespace
+
+TEST(FixtureMode, TempRateBlockCompressionIsExact) {
+  // The accumulator's normal equations (block moments incl. the Ṫ cross moments) against a brute-force
+  // per-row sum of φφᵀ and φz with φ from model::regressors at each row's own T and Ṫ.
+  synth::Config cfg;
+  cfg.plateaus_C = {10, 40};
+  cfg.samples_per_dwell = 60;
+  std::vector<io::LogRow> rows;
+  synth::generate(cfg, synth::truth_params(), 4, [&](const io::LogRow& r0) {
+    io::LogRow r = r0;
+    r.temp_C += 2.0 * std::sin(0.05 * r.t_s) + 0.3 * std::sin(0.7 * r.t_s);  // Ṫ varies inside blocks
+    rows.push_back(r);
+  });
+  const auto spec = thermal_rate_spec(true);
+  FixtureAccumulator acc(spec, synth::meta(cfg));
+  for (const auto& r : rows) acc.add(r);
+  acc.finish();
+  Sigma6 one;
+  one.fill(1.0);
+  const NormalEquations ne = acc.normal_equations(one);
+  const auto names = acc.names();
+  ASSERT_EQ(names.size(), 48u);
+
+  std::vector<double> t, T;
+  for (const auto& r : rows) {
+    t.push_back(r.t_s);
+    T.push_back(r.temp_C);
+  }
+  const std::vector<double> q = model::temp_rate_centered(t, T, acc.dTdt_window_s());
+  const std::vector<model::ParamId> ids = spec.parameters();
+  ASSERT_EQ(ids.size(), names.size());
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(48, 48);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(48);
+  model::HysteresisTracker hyst;
+  const double lsb[2] = {synth::meta(cfg).accel_lsb_mps2, synth::meta(cfg).gyro_lsb_rad_s};
+  Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, 48);
+  double max_q = 0;
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const auto& r = rows[i];
+    const double d = hyst.update(r.temp_C);
+    if (r.segment < 0 || !r.has_ref) continue;
+    model::MeasureInput in;
+    in.f = Eigen::Vector3d(r.f_ref[0], r.f_ref[1], r.f_ref[2]);
+    in.w = Eigen::Vector3d(r.w_ref[0], r.w_ref[1], r.w_ref[2]);
+    in.T_C = r.temp_C;
+    in.Tdot_C_s = q[i];
+    in.d = d;
+    max_q = std::max(max_q, std::abs(q[i]));
+    for (int s = 0; s < 2; ++s) {
+      model::regressors(static_cast<model::Sensor>(s), ids, in, spec.T_ref_C, J);
+      for (int j = 0; j < 3; ++j) {
+        const double z = r.raw[3 * s + j] * lsb[s] - (s ? in.w[j] : in.f[j]);
+        h += J.row(j).transpose() * J.row(j);
+        g += J.row(j).transpose() * z;
+      }
+    }
+  }
+  EXPECT_GT(max_q, 0.1);  // the test really exercises Ṫ
+  for (int a = 0; a < 48; ++a) {
+    EXPECT_NEAR(ne.rhs[a], g[a], 1e-9 * std::sqrt(h(a, a) * ne.cost) + 1e-12) << names[size_t(a)];
+    for (int b = 0; b < 48; ++b)
+      EXPECT_NEAR(ne.info(a, b), h(a, b), 1e-9 * std::sqrt(h(a, a) * h(b, b)) + 1e-12)
+          << names[size_t(a)] << " x " << names[size_t(b)];
+  }
+}
+
+namespace {
+// A simulated thermal campaign (host/sim): 4 plateaus with the six faces and CW/CCW rates, joined by
+// 2 °C/min ramps up and down, so every temperature between 5 and 45 °C is crossed while heating and while
+// cooling. 10 Hz keeps it to ~30k rows.
+struct SimRun {
+  std::vector<io::LogRow> rows;
+  io::LogMeta meta;
+  model::SensorModel sensor;
+};
+SimRun simulate_thermal_ramps(bool up_and_down) {
+  nlohmann::json c = nlohmann::json::parse(std::ifstream(IMUFORGE_SOURCE_DIR "/docs/examples/campaign-small.json"));
+  c["sample_rate_hz"] = 10;
+  c["table"]["mount"]["lever_arm_m"] = {0, 0, 0};
+  c["simulation"] = {{"temp_noise_C", 0.01}};
+  const nlohmann::json steps = {{{"use", "faces6"}}, {{"use", "rates"}}};
+  auto plateau = [&](double T) {
+    return nlohmann::json{{"type", "plateau"}, {"setpoint_C", T}, {"soak_s", 60}, {"steps", steps}};
+  };
+  auto ramp = [](double T) { return nlohmann::json{{"type", "ramp"}, {"setpoint_C", T}, {"rate_C_per_min", 2}}; };
+  if (up_and_down)
+    c["phases"] = {plateau(25), ramp(45), plateau(45), ramp(5), plateau(5), ramp(25), plateau(25)};
+  else  // heating only: Ṫ ≥ 0 throughout
+    c["phases"] = {plateau(5), ramp(25), plateau(25), ramp(45), plateau(45)};
+  c["chamber"]["initial_C"] = up_and_down ? 25 : 5;
+  nlohmann::json sj = nlohmann::json::parse(std::ifstream(IMUFORGE_SOURCE_DIR "/docs/examples/sensor-matched.json"));
+  sj["effects"]["accel.temp_rate"] = {{"x", 0.10}, {"y", -0.08}, {"z", 0.12}};
+  sj["effects"]["gyro.temp_rate"] = {{"x", 1.0e-3}, {"y", -1.2e-3}, {"z", 8e-4}};
+  SimRun run;
+  run.sensor = model::sensor_model_from_json(sj);
+  const sim::Campaign camp = sim::campaign_from_json(c);
+  sim::SimOptions opt;
+  opt.seed = 11;
+  run.meta = sim::make_log_meta(camp, run.sensor, opt);
+  sim::simulate(camp, run.sensor, opt, [&](const io::LogRow& r) { run.rows.push_back(r); });
+  return run;
+}
+}  // namespace
+
+namespace {
+struct RateFits {
+  FixtureSolution with, without;
+  double worst_with = 0, worst_rate = 0, min_rate_snr = 1e300, worst_without = 0;
+  std::string worst_without_name;
+  Sigma6 sigma{}, static_sigma{};  // true per-sample σ; the accumulator's within-dwell estimate
+};
+RateFits fit_with_and_without_temp_rate(const SimRun& run) {
+  // Per-sample σ: white noise density·√fs plus the output LSB's rounding (lsb²/12, 2 % of the gyro
+  // variance here), so χ² is meaningful.
+  Sigma6 sig;
+  for (int c = 0; c < 6; ++c) {
+    const char* sn = c < 3 ? "accel" : "gyro";
+    const double wn = run.sensor.params.get(std::string(sn) + ".white_noise." + "xyz"[c % 3]) * std::sqrt(run.meta.sample_rate_hz);
+    const double lsb = c < 3 ? run.meta.accel_lsb_mps2 : run.meta.gyro_lsb_rad_s;
+    sig[size_t(c)] = std::sqrt(wn * wn + lsb * lsb / 12);
+  }
+  RateFits f;
+  f.sigma = sig;
+  auto solve = [&](bool with_rate) {
+    FixtureAccumulator acc(thermal_rate_spec(with_rate), run.meta);
+    for (const auto& r : run.rows) acc.add(r);
+    acc.finish();
+    if (with_rate) f.static_sigma = acc.static_noise_sigma();
+    return solve_fixture(acc, sig);
+  };
+  f.with = solve(true);
+  f.without = solve(false);
+  const auto& e = f.with.estimate;
+  for (size_t i = 0; i < e.names.size(); ++i) {
+    const double truth = run.sensor.params.get(e.names[i]);
+    const double z = (e.value[long(i)] - truth) / e.sigma()[long(i)];
+    f.worst_with = std::max(f.worst_with, std::abs(z));
+    if (e.names[i].find("temp_rate") != std::string::npos) {
+      f.worst_rate = std::max(f.worst_rate, std::abs(z));
+      f.min_rate_snr = std::min(f.min_rate_snr, std::abs(truth) / e.sigma()[long(i)]);
+    }
+  }
+  const auto& o = f.without.estimate;
+  for (size_t i = 0; i < o.names.size(); ++i) {
+    const double z = std::abs(o.value[long(i)] - run.sensor.params.get(o.names[i])) / o.sigma()[long(i)];
+    if (z > f.worst_without) {
+      f.worst_without = z;
+      f.worst_without_name = o.names[i];
+    }
+  }
+  std::printf("%lld samples: with temp_rate worst |error|/σ %.2f (temp_rate %.2f, |truth| ≥ %.0f σ), χ²/N %.4f; "
+              "without: worst %.2f (%s), χ²/N %.4f\n",
+              f.with.samples, f.worst_with, f.worst_rate, f.min_rate_snr, f.with.chi2 / (6.0 * f.with.samples),
+              f.worst_without, f.worst_without_name.c_str(), f.without.chi2 / (6.0 * f.without.samples));
+  return f;
+}
+}  // namespace
+
+TEST(FixtureMode, TempRateRecoveredFromSimulatedRampsAndNeededForFit) {
+  // Ramps up AND down: every temperature is crossed at +Ṫ and −Ṫ.
+  const RateFits f = fit_with_and_without_temp_rate(simulate_thermal_ramps(true));
+  ASSERT_EQ(f.with.estimate.names.size(), 48u);
+  EXPECT_GT(f.min_rate_snr, 10.0);  // the campaign really determines temp_rate
+  EXPECT_LT(f.worst_rate, 4.0);
+  EXPECT_LT(f.worst_with, 4.5);
+  // With temp_rate the fit is consistent with the noise (χ² ≈ N); without, the residuals rise by far more
+  // than chance (were temp_rate zero, Δχ² would be χ²(6): mean 6). This symmetric campaign keeps the
+  // omitted term from biasing the rest (see the heating-only test).
+  const double n_obs = 6.0 * static_cast<double>(f.with.samples);
+  EXPECT_LT(std::abs(f.with.chi2 - n_obs), 4 * std::sqrt(2 * n_obs));
+  EXPECT_GT(f.without.chi2 - f.with.chi2, 1000.0);
+  for (int c = 0; c < 6; ++c) EXPECT_GT(f.without.residual_rms[size_t(c)], f.with.residual_rms[size_t(c)]) << c;
+  // The static noise estimate pools dwells only: a 40 °C ramp block would inflate it (gyro: ×2.7).
+  for (int c = 0; c < 6; ++c) EXPECT_NEAR(f.static_sigma[size_t(c)], f.sigma[size_t(c)], 0.05 * f.sigma[size_t(c)]) << c;
+}
+
+TEST(FixtureMode, OmittingTempRateBiasesAHeatingOnlyCampaign) {
+  // Heating only: Ṫ ≥ 0 everywhere, so the omitted r·Ṫ leaks into the thermal polynomial.
+  const RateFits f = fit_with_and_without_temp_rate(simulate_thermal_ramps(false));
+  EXPECT_GT(f.min_rate_snr, 3.0);
+  EXPECT_LT(f.worst_with, 4.5);
+  EXPECT_GT(f.worst_without, 6.0) << f.worst_without_name;
+  EXPECT_GT(f.without.chi2 - f.with.chi2, 100.0);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Per-plateau models online: the SRIF grows by the new plateau's slots as plateaus are discovered.
+
+TEST(FixtureMode, RecursivePerPlateauEqualsBatchWithin1e6Sigma) {
+  nlohmann::json j = {{"name", "pp"},
+                      {"effects", {{"accel.bias", {{"per_plateau", true}}}, {"accel.scale", {{"per_plateau", true}}},
+                                   {"accel.misalign", nlohmann::json::object()}, {"gyro.bias", {{"per_plateau", true}}},
+                                   {"gyro.scale", nlohmann::json::object()}, {"gyro.misalign", nlohmann::json::object()},
+                                   {"gyro.scale_temp", {{"order", 1}}}}}};
+  const auto spec = model::model_spec_from_json(j);
+  synth::Config cfg;
+  // Not in temperature order, and the last plateau revisits the first one: discovery order 25, −10, 60.
+  cfg.plateaus_C = {25, -10, 60, 25};
+  const Sigma6 sig = sigma_of(cfg);
+  const auto truth = synth::truth_params();
+  const std::uint64_t seed = 12;
+  const int dwells = static_cast<int>(cfg.dwells.size());
+
+  OnlineCalibrator oc(spec, synth::meta(cfg), sig);
+  Estimate mid;  // after the second plateau (−10 °C), which becomes plateau0 and shifts 25 °C to plateau1
+  std::vector<size_t> sizes;
+  oc.on_update = [&](const SegmentSummary& s, const Estimate& e) {
+    sizes.push_back(e.names.size());
+    if (s.segment == 2 * dwells - 1) mid = e;
+  };
+  synth::generate(cfg, truth, seed, [&](const io::LogRow& r) { oc.add(r); });
+  oc.finish();
+  ASSERT_EQ(sizes.size(), size_t(4 * dwells));
+  // 18 shared slots + 9 per plateau: 27 after plateau 1, 36 after 2, 45 after 3, no more on the revisit.
+  EXPECT_EQ(sizes.front(), 27u);
+  EXPECT_EQ(sizes[size_t(dwells)], 36u);
+  EXPECT_EQ(sizes[size_t(2 * dwells)], 45u);
+  EXPECT_EQ(sizes.back(), 45u);
+
+  // At the end: the batch solution of the whole log, same names in the same order.
+  const FixtureSolution batch = solve_fixture(oc.accumulator(), sig);
+  const Estimate rec = oc.estimate();
+  ASSERT_EQ(rec.names, batch.estimate.names);
+  EXPECT_EQ(rec.names[size_t(rec.index_of("accel.bias.x@plateau0"))], "accel.bias.x@plateau0");
+  EXPECT_NEAR(oc.accumulator().plateaus()[0].T_C, -10.0, 0.5);
+  for (size_t i = 0; i < rec.names.size(); ++i) {
+    const double s = batch.estimate.sigma()[long(i)];
+    EXPECT_LT(std::abs(rec.value[long(i)] - batch.estimate.value[long(i)]), 1e-6 * s) << rec.names[i];
+    EXPECT_LT(std::abs(rec.sigma()[long(i)] - s), 1e-6 * s) << rec.names[i];
+  }
+
+  // Mid-run: the batch solution of the rows seen so far (the same seed generates the same prefix).
+  synth::Config pre = cfg;
+  pre.plateaus_C = {25, -10};
+  FixtureAccumulator acc_pre(spec, synth::meta(pre));
+  synth::generate(pre, truth, seed, [&](const io::LogRow& r) { acc_pre.add(r); });
+  acc_pre.finish();
+  const FixtureSolution bpre = solve_fixture(acc_pre, sig);
+  ASSERT_EQ(mid.names, bpre.estimate.names);
+  for (size_t i = 0; i < mid.names.size(); ++i) {
+    const double s = bpre.estimate.sigma()[long(i)];
+    EXPECT_LT(std::abs(mid.value[long(i)] - bpre.estimate.value[long(i)]), 1e-6 * s) << mid.names[i];
+    EXPECT_LT(std::abs(mid.sigma()[long(i)] - s), 1e-6 * s) << mid.names[i];
+  }
+  // The truth lies within a few σ of the per-plateau bias at the cold plateau (bias(T) of the truth).
+  const int k = bpre.estimate.index_of("gyro.bias.z@plateau0");
+  ASSERT_GE(k, 0);
+  const double tau = acc_pre.plateaus()[0].T_C - 25.0;
+  const double tr = truth.get("gyro.bias.z") + truth.get("gyro.bias_temp.z.t1") * tau + truth.get("gyro.bias_temp.z.t2") * tau * tau;
+  EXPECT_LT(std::abs(bpre.estimate.value[k] - tr), 5 * bpre.estimate.sigma()[k] + 0.02 * std::abs(tr));
 }
