@@ -118,15 +118,7 @@ FixtureAccumulator::FixtureAccumulator(const model::ModelSpec& spec, const io::L
   lsb_[1] = meta.gyro_lsb_rad_s;
   const std::vector<model::ParamId> ids = spec.parameters();
   if (ids.empty()) throw SolverError("the model estimates no deterministic parameter");
-  dTdt_window_s_ = model::ThermalConstants{}.dTdt_window_s;
-  if (spec.extra.is_object()) {
-    const auto w = spec.extra.find("dTdt_window_s");
-    if (w != spec.extra.end()) {
-      if (!w->is_number() || !(w->get<double>() > 0) || !std::isfinite(w->get<double>()))
-        throw SolverError("model \"dTdt_window_s\" must be a positive number of seconds");
-      dTdt_window_s_ = w->get<double>();
-    }
-  }
+  dTdt_window_s_ = dTdt_window_of(spec);
   bool has_rate = false;
   for (size_t i = 0; i < ids.size(); ++i) {
     const auto& pi = model::param_info(ids[i]);
@@ -143,6 +135,19 @@ FixtureAccumulator::FixtureAccumulator(const model::ModelSpec& spec, const io::L
   }
   if (has_rate) tdot_.emplace(dTdt_window_s_);
   for (int c = 0; c < kNumChannels; ++c) seg_stats_[static_cast<size_t>(c)].reset(static_cast<int>(ids_[static_cast<size_t>(c / 3)].size()));
+}
+
+double dTdt_window_of(const model::ModelSpec& spec) {
+  double w_s = model::ThermalConstants{}.dTdt_window_s;
+  if (spec.extra.is_object()) {
+    const auto w = spec.extra.find("dTdt_window_s");
+    if (w != spec.extra.end()) {
+      if (!w->is_number() || !(w->get<double>() > 0) || !std::isfinite(w->get<double>()))
+        throw SolverError("model \"dTdt_window_s\" must be a positive number of seconds");
+      w_s = w->get<double>();
+    }
+  }
+  return w_s;
 }
 
 void FixtureAccumulator::add(const io::LogRow& row) {

@@ -93,6 +93,10 @@ class CenteredTempRate {
   bool closed_ = false;
 };
 
+// The Ṫ window of a model: its "dTdt_window_s" (s), else ThermalConstants' default. Throws SolverError
+// unless positive and finite.
+double dTdt_window_of(const model::ModelSpec& spec);
+
 class FixtureAccumulator {
  public:
   FixtureAccumulator(const model::ModelSpec& spec, const io::LogMeta& meta);

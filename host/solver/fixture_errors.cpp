@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 
 #include "host/model/measure.h"
 #include "host/sim/earth.h"
@@ -56,6 +57,8 @@ class FixtureErrorsProblem : public NonlinearProblem {
     site.height_m = c.height_m;
     g_ned_ = sim::gravity_ned(site);
     wie_ned_ = sim::earth_rate_ned(site);
+    for (model::ParamId id : ids_all_) has_temp_rate_ = has_temp_rate_ || model::param_info(id).effect == model::Effect::kTempRate;
+    dTdt_window_s_ = dTdt_window_of(spec);
     lsb_[0] = log.meta().accel_lsb_mps2;
     lsb_[1] = log.meta().gyro_lsb_rad_s;
     if (log.meta().table_axes != nominal_.n_axes)
@@ -87,7 +90,6 @@ class FixtureErrorsProblem : public NonlinearProblem {
       }
     log_.rewind();
     model::HysteresisTracker hyst;
-    io::LogRow row;
     sim::TableState last{};
     bool have_last = false;
     std::vector<sim::ImuKinematics> kin(tables.size());
@@ -97,9 +99,12 @@ class FixtureErrorsProblem : public NonlinearProblem {
     for (int s = 0; s < 2; ++s) J[static_cast<size_t>(s)].resize(3, static_cast<long>(ids_[static_cast<size_t>(s)].size()));
     Sigma6 rss{};
     long long count = 0;
-    while (log_.next(row)) {
+    // Ṫ for temp_rate: the same streaming centred difference as fixture mode (rows come out delayed).
+    std::optional<CenteredTempRate> tdot;
+    if (has_temp_rate_) tdot.emplace(dTdt_window_s_);
+    auto process = [&](const io::LogRow& row, double Tdot_C_s) {
       const double d = hyst.update(row.temp_C);
-      if (row.segment < 0 || !row.has_ref) continue;
+      if (row.segment < 0 || !row.has_ref) return;
       sim::TableState st{};
       bool ok = true;
       for (int a = 0; a < nominal_.n_axes; ++a) {
@@ -107,7 +112,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
         st.rate_rad_s[static_cast<size_t>(a)] = row.table_rate_rad_s[a];
         ok = ok && std::isfinite(row.table_angle_rad[a]) && std::isfinite(row.table_rate_rad_s[a]);
       }
-      if (!ok) continue;
+      if (!ok) return;
       if (!have_last || st.angle_rad != last.angle_rad || st.rate_rad_s != last.rate_rad_s) {
         for (size_t t = 0; t < tables.size(); ++t) kin[t] = sim::table_kinematics(tables[t], st, g_ned_, wie_ned_);
         last = st;
@@ -122,6 +127,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
         in.T_C = T;
         in.d = d;
         in.t_s = row.t_s;
+        in.Tdot_C_s = Tdot_C_s;
         return in;
       };
       const model::MeasureInput in0 = input(kin[0]);
@@ -149,6 +155,22 @@ class FixtureErrorsProblem : public NonlinearProblem {
         }
       }
       ++count;
+    };
+    io::LogRow row;
+    double q = 0.0;
+    while (log_.next(row)) {
+      if (!tdot) {
+        process(row, 0.0);
+        continue;
+      }
+      tdot->push(row);
+      io::LogRow r;
+      while (tdot->pop(r, q)) process(r, q);
+    }
+    if (tdot) {
+      tdot->close();
+      io::LogRow r;
+      while (tdot->pop(r, q)) process(r, q);
     }
     ne.info = info.selfadjointView<Eigen::Lower>();
     ne.n_obs = 6 * count;
@@ -167,6 +189,8 @@ class FixtureErrorsProblem : public NonlinearProblem {
   sim::TableGeometry nominal_;
   Eigen::Vector3d g_ned_, wie_ned_;
   double lsb_[2];
+  bool has_temp_rate_ = false;
+  double dTdt_window_s_ = 10.0;
   mutable long long samples_ = 0;
   mutable Sigma6 rms_{};
 };

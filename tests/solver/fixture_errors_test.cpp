@@ -63,19 +63,24 @@ struct SimLog {
   ~SimLog() { std::remove(path.c_str()); }
 };
 
-std::unique_ptr<SimLog> simulate(bool fixture_errors, std::uint64_t seed, bool thin = false) {
+std::unique_ptr<SimLog> simulate_with(const json& campaign, const model::SensorModel& sensor, const std::string& tag,
+                                      std::uint64_t seed) {
   auto out = std::make_unique<SimLog>();
-  out->campaign = sim::campaign_from_json(campaign_json(fixture_errors, thin));
-  const model::SensorModel sensor = basic_sensor();
+  out->campaign = sim::campaign_from_json(campaign);
   sim::SimOptions opt;
   opt.seed = seed;
-  out->path = ::testing::TempDir() + "fixture_errors_" + std::to_string(fixture_errors) + std::to_string(thin) + "_" + std::to_string(seed) + ".bin";
+  out->path = ::testing::TempDir() + "fixture_errors_" + tag + "_" + std::to_string(seed) + ".bin";
   io::LogWriter w(out->path, sim::make_log_meta(out->campaign, sensor, opt));
   const sim::SimSummary sum = sim::simulate(out->campaign, sensor, opt, w);
   w.close();
   for (auto it = sum.truth["parameters"].begin(); it != sum.truth["parameters"].end(); ++it)
     if (it.value().is_number()) out->truth.set(it.key(), it.value().get<double>());
   return out;
+}
+
+std::unique_ptr<SimLog> simulate(bool fixture_errors, std::uint64_t seed, bool thin = false) {
+  return simulate_with(campaign_json(fixture_errors, thin), basic_sensor(),
+                       std::to_string(fixture_errors) + std::to_string(thin), seed);
 }
 
 model::ParamSet to_params(const Estimate& e) {
@@ -226,4 +231,41 @@ TEST(FixtureErrorsMode, ThinCampaignIsAnErrorNamingTheInseparableCombination) {
   EXPECT_EQ(fe.assumed_zero, std::vector<std::string>{"fixture.axis0.tilt_a"});
   const Eigen::VectorXd e = intrinsic_error(to_params(fe.estimate), bad->truth);
   EXPECT_GT(e.cwiseAbs().maxCoeff(), 1e-3);
+}
+
+// temp_rate with fixture errors: the same streaming Ṫ as fixture mode inside every LM pass. Plateaus at 25
+// and 45 °C with the whole table-cal programme, joined by 2 °C/min ramps up and down (Ṫ of both signs).
+TEST(FixtureErrorsMode, EstimatesTempRateWithTheThermalModel) {
+  json c = campaign_json(true);
+  c["sample_rate_hz"] = 10;
+  const json steps = c["phases"][0]["steps"];
+  auto plateau = [&](double T) { return json{{"type", "plateau"}, {"setpoint_C", T}, {"soak_s", 60}, {"steps", steps}}; };
+  auto ramp = [](double T) { return json{{"type", "ramp"}, {"setpoint_C", T}, {"rate_C_per_min", 2}}; };
+  c["phases"] = {plateau(25), ramp(45), plateau(45), ramp(5), plateau(5), ramp(25)};
+  json sj = read_json(IMUFORGE_SOURCE_DIR "/docs/examples/sensor-matched.json");
+  sj["effects"]["accel.temp_rate"] = {{"x", 0.10}, {"y", -0.08}, {"z", 0.12}};
+  sj["effects"]["gyro.temp_rate"] = {{"x", 1.0e-3}, {"y", -1.2e-3}, {"z", 8e-4}};
+  const auto log = simulate_with(c, model::sensor_model_from_json(sj), "trate", 41);
+  json mj = read_json(IMUFORGE_SOURCE_DIR "/docs/examples/model-thermal.json");
+  mj["effects"]["accel.misalign"] = {{"components", {"yx", "zx", "zy"}}};
+  mj["effects"]["accel.temp_rate"] = json::object();
+  mj["effects"]["gyro.temp_rate"] = json::object();
+  io::LogReader r(log->path);
+  const FixtureErrorsResult fe = solve_fixture_errors(r, model::model_spec_from_json(mj), log->campaign);
+  const model::ParamSet tb = model::to_accel_body_frame(log->truth).params;
+  const Eigen::VectorXd sig = fe.estimate.sigma();
+  double worst = 0, worst_rate = 0;
+  for (size_t i = 0; i < fe.estimate.names.size(); ++i) {
+    const std::string& nm = fe.estimate.names[i];
+    if (model::find_param(nm) < 0) continue;
+    const double z = std::abs(fe.estimate.value[long(i)] - tb.get(nm)) / sig[long(i)];
+    worst = std::max(worst, z);
+    if (nm.find("temp_rate") != std::string::npos) {
+      worst_rate = std::max(worst_rate, z);
+      EXPECT_GT(std::abs(tb.get(nm)), 5 * sig[long(i)]) << nm << ": the campaign must determine temp_rate";
+    }
+  }
+  std::printf("fixture+errors with temp_rate: %lld samples, worst |error|/σ %.2f (temp_rate %.2f)\n", fe.samples, worst,
+              worst_rate);
+  EXPECT_LT(worst, 5.0);
 }
