@@ -393,7 +393,10 @@ bool LogReader::next_csv(LogRow& row) {
       } else {
         double v = std::nan("");
         if (a != e && !parse_double(a, e, v)) fail("expected a number or an empty cell");
-        ((fld - 16) % 2 == 0 ? row.table_angle_rad : row.table_rate_rad_s)[(fld - 16) / 2] = v;
+        // A plain branch: GCC 12 with -fsanitize=undefined miscompiles `(c ? arr1 : arr2)[i / 2]` on built-in
+        // arrays (the index is evaluated in one arm only; see host/diagnosis/diagnose.cpp).
+        if ((fld - 16) % 2 == 0) row.table_angle_rad[(fld - 16) / 2] = v;
+        else row.table_rate_rad_s[(fld - 16) / 2] = v;
       }
     }
     ++col;
