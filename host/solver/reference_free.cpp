@@ -187,6 +187,10 @@ RawRecording read_recording(io::LogReader& log) {
     std::array<double, 6> y;
     for (int c = 0; c < 6; ++c) y[static_cast<size_t>(c)] = row.raw[c] * (c < 3 ? m.accel_lsb_mps2 : m.gyro_lsb_rad_s);
     rec.y.push_back(y);
+    bool clip = false;
+    for (int c = 3; c < 6; ++c) clip = clip || row.raw[c] <= -32768 || row.raw[c] >= 32767;
+    rec.gyro_clipped.push_back(clip);
+    rec.clipped_samples += clip ? 1 : 0;
   }
   if (rec.t_s.size() < 10) throw SolverError("log '" + log.path() + "' has too few samples for reference-free mode");
   for (size_t i = 1; i < rec.t_s.size(); ++i)
@@ -283,10 +287,48 @@ TriadCal triad_from_estimate(const Estimate& e, const std::string& sensor) {
   return c;
 }
 
+namespace {
+bool clipped_in(const RawRecording& rec, std::size_t i0, std::size_t i1) {
+  if (rec.gyro_clipped.empty()) return false;
+  for (std::size_t k = i0; k <= i1 && k < rec.gyro_clipped.size(); ++k)
+    if (rec.gyro_clipped[k]) return true;
+  return false;
+}
+}  // namespace
+
+RotationCheck rotation_check(const RawRecording& rec, const Estimate& cal, double window_s) {
+  RotationCheck rc = rotation_check(rec, triad_from_estimate(cal, "gyro"), window_s);
+  // dθ/dp for every gyro scale/misalignment in the estimate, by central differences (the angle is
+  // smooth in them), then σ² = J C Jᵀ over that block of the covariance.
+  std::vector<int> idx;
+  for (int i = 0; i < static_cast<int>(cal.names.size()); ++i)
+    if (cal.names[static_cast<size_t>(i)].rfind("gyro.scale.", 0) == 0 ||
+        cal.names[static_cast<size_t>(i)].rfind("gyro.misalign.", 0) == 0)
+      idx.push_back(i);
+  if (idx.empty() || cal.covariance.rows() != static_cast<long>(cal.names.size())) return rc;
+  const double h = 1e-5;
+  Eigen::VectorXd jac(static_cast<long>(idx.size()));
+  for (size_t a = 0; a < idx.size(); ++a) {
+    Estimate p = cal, m = cal;
+    p.value[idx[a]] += h;
+    m.value[idx[a]] -= h;
+    jac[static_cast<long>(a)] = (rotation_check(rec, triad_from_estimate(p, "gyro"), window_s).angle_deg -
+                                 rotation_check(rec, triad_from_estimate(m, "gyro"), window_s).angle_deg) / (2 * h);
+  }
+  Eigen::MatrixXd c(jac.size(), jac.size());
+  for (long a = 0; a < jac.size(); ++a)
+    for (long b = 0; b < jac.size(); ++b) c(a, b) = cal.covariance(idx[static_cast<size_t>(a)], idx[static_cast<size_t>(b)]);
+  rc.angle_sigma_deg = std::sqrt(std::max(0.0, jac.dot(c * jac)));
+  return rc;
+}
+
 RotationCheck rotation_check(const RawRecording& rec, const TriadCal& gyro, double window_s) {
   // The gyro shows a rotation even where the accelerometer barely changes (rotation about the vertical).
   const auto iv = detect_static(rec, window_s, 2.0, 4.0, StaticSignal::kGyro);
   if (iv.empty()) throw SolverError("rotation check: no static interval to take the gyro bias from");
+  if (rec.clipped_samples > 0)
+    throw SolverError("rotation check: " + std::to_string(rec.clipped_samples) +
+                      " gyro samples at a 16-bit full-scale limit; the integrated angle would be short");
   TriadCal g = gyro;
   // Turn-on bias differs at every power-up: take it from this recording's first still period, in output
   // units, so the calibration's scale/misalignment apply to rate only.
@@ -366,8 +408,6 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
   bvar /= static_cast<double>(iv.size() - 1) * static_cast<double>(iv.size());
 
   // 4: gyro scale/misalignment from the gravity direction across transitions.
-  std::vector<Eigen::Vector3d> gdir;
-  for (const auto& s : iv) gdir.push_back((ainv * (s.acc - acal.b)).normalized());
   const int ng = static_cast<int>(std::count(gyro_active.begin(), gyro_active.end(), true));
   auto gfull = [&](const Eigen::VectorXd& x) {
     Eigen::VectorXd p = Eigen::VectorXd::Zero(9);
@@ -375,18 +415,34 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
       if (gyro_active[static_cast<size_t>(k)]) p[k] = x[a++];
     return p;
   };
-  auto gres = [&](const Eigen::VectorXd& x) {
-    const TriadCal c = gyro_cal(gfull(x), bg);
+  std::vector<size_t> used;  // transitions i -> i+1 without a clipped gyro sample
+  for (size_t i = 0; i + 1 < iv.size(); ++i)
+    if (!clipped_in(rec, iv[i].end - 1, iv[i + 1].begin)) used.push_back(i);
+  res.transitions_used = static_cast<int>(used.size());
+  res.transitions_clipped = static_cast<int>(iv.size() - 1 - used.size());
+  // The residual as a function of the gyro unknowns AND the upstream estimates it is conditioned on
+  // (accelerometer parameters through the gravity directions, gyro bias through the integration).
+  auto gres_at = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& pa9, const Eigen::Vector3d& bias) {
+    const TriadCal ac = accel_cal(pa9);
+    const Eigen::Matrix3d ai = ac.IM.inverse();
+    std::vector<Eigen::Vector3d> gdir;
+    for (const auto& s : iv) gdir.push_back((ai * (s.acc - ac.b)).normalized());
+    const TriadCal c = gyro_cal(gfull(x), bias);
     const Eigen::Matrix3d inv = c.IM.inverse();
-    Eigen::VectorXd e(3 * static_cast<long>(iv.size() - 1));
-    for (size_t i = 0; i + 1 < iv.size(); ++i) {
+    Eigen::VectorXd e(3 * static_cast<long>(used.size()));
+    for (size_t u = 0; u < used.size(); ++u) {
+      const size_t i = used[u];
       const Eigen::Matrix3d r = integrate_with(rec, inv, c.b, iv[i].end - 1, iv[i + 1].begin);
-      e.segment<3>(3 * static_cast<long>(i)) = r.transpose() * gdir[i] - gdir[i + 1];
+      e.segment<3>(3 * static_cast<long>(u)) = r.transpose() * gdir[i] - gdir[i + 1];
     }
     return e;
   };
+  auto gres = [&](const Eigen::VectorXd& x) { return gres_at(x, best.p, bg); };
   Eigen::VectorXd gtheta = Eigen::VectorXd::Zero(ng);
   Eigen::MatrixXd ginfo = Eigen::MatrixXd::Zero(ng, ng);
+  // Sensitivity of the gyro estimate to the upstream estimates u = (active accel parameters, gyro bias):
+  // D = −(JgᵀJg)⁻¹ Jgᵀ Ju, so Cov(gyro) = Cov(gyro | u) + D Cov(u) Dᵀ and Cov(gyro, u) = D Cov(u).
+  Eigen::MatrixXd dgu = Eigen::MatrixXd::Zero(ng, na + 3);
   res.rotation_rms_before = rms(gres(Eigen::VectorXd::Zero(ng)));
   if (ng > 0) {
     ResidualProblem gp(ng, gres, Eigen::VectorXd::Constant(ng, 1e-6));
@@ -395,10 +451,32 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
     LmResult r = levenberg_marquardt(gp, Eigen::VectorXd::Zero(ng), lo);
     gtheta = r.theta;
     const Eigen::VectorXd e = gp.residual(gtheta);
-    const int dof = static_cast<int>(e.size()) - ng;
-    if (dof <= 0) throw SolverError("reference-free mode: too few pose transitions for the gyro unknowns");
+    // Each transition's residual is a difference of unit vectors: 2 degrees of freedom, not 3.
+    const int dof = 2 * static_cast<int>(used.size()) - ng;
+    if (dof <= 0)
+      throw SolverError("reference-free mode: " + std::to_string(used.size()) + " usable pose transitions (" +
+                        std::to_string(res.transitions_clipped) + " left out: gyro clipped at full scale) are too few for " +
+                        std::to_string(ng) + " gyro unknowns");
     ginfo = r.normal.info / (e.squaredNorm() / dof);
     res.rotation_rms_after = rms(e);
+    const Eigen::MatrixXd jg = gp.jacobian(gtheta, e);
+    Eigen::MatrixXd ju(e.size(), na + 3);
+    for (int k = 0, a = 0; k < 9; ++k) {
+      if (!acc_active[static_cast<size_t>(k)]) continue;
+      const double h = k < 3 ? 1e-6 : 1e-7;
+      Eigen::VectorXd pp = best.p, pm = best.p;
+      pp[k] += h;
+      pm[k] -= h;
+      ju.col(a++) = (gres_at(gtheta, pp, bg) - gres_at(gtheta, pm, bg)) / (2 * h);
+    }
+    for (int j = 0; j < 3; ++j) {
+      const double h = 1e-6;
+      Eigen::Vector3d bp = bg, bm = bg;
+      bp[j] += h;
+      bm[j] -= h;
+      ju.col(na + j) = (gres_at(gtheta, best.p, bp) - gres_at(gtheta, best.p, bm)) / (2 * h);
+    }
+    dgu = -(jg.transpose() * jg).ldlt().solve(jg.transpose() * ju);
   } else {
     res.rotation_rms_after = res.rotation_rms_before;
   }
@@ -434,6 +512,32 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
   res.estimate.names = names;
   res.estimate.value = Eigen::Map<Eigen::VectorXd>(values.data(), n);
   res.estimate.covariance = covariance_from_information(info, names, &res.observability);
+  if (ng > 0) {
+    // Propagate the upstream uncertainty into the gyro block (sequential estimate: the accelerometer
+    // and bias blocks keep their own covariance).
+    Eigen::MatrixXd cu = Eigen::MatrixXd::Zero(na + 3, na + 3);
+    if (na > 0) cu.topLeftCorner(na, na) = best.info.ldlt().solve(Eigen::MatrixXd::Identity(na, na));
+    for (int j = 0; j < 3; ++j) cu(na + j, na + j) = bvar[j];
+    const Eigen::MatrixXd dcu = dgu * cu;
+    const Eigen::MatrixXd add = dcu * dgu.transpose();
+    auto upos = [&](int i) {  // index of output i in u, or −1
+      const auto [b, k] = src[static_cast<size_t>(i)];
+      return b == 0 ? acc_pos[static_cast<size_t>(k)] : b == 1 ? na + k : -1;
+    };
+    for (int i = 0; i < n; ++i) {
+      const auto [bi, ki] = src[static_cast<size_t>(i)];
+      if (bi != 2) continue;
+      const int gi = gyr_pos[static_cast<size_t>(ki)];
+      for (int l = 0; l < n; ++l) {
+        const auto [bl, kl] = src[static_cast<size_t>(l)];
+        if (bl == 2) {
+          res.estimate.covariance(i, l) += add(gi, gyr_pos[static_cast<size_t>(kl)]);
+        } else {
+          res.estimate.covariance(i, l) = res.estimate.covariance(l, i) = dcu(gi, upos(l));
+        }
+      }
+    }
+  }
 
   // Within-pose scatter of the calibrated outputs per channel (the noise level seen at rest).
   const TriadCal gcal = gyro_cal(gp9, bg);

@@ -10,14 +10,18 @@
 //    frame is the accelerometer's (x sensing axis = body x, y sensing axis in the body xy plane), i.e.
 //    accel.misalign.xy = xz = yz = 0 (a lower-triangular I+M_a, Tedaldi's convention).
 // 3. Gyro bias: the sample-weighted mean gyro output over the static intervals.
-// 4. Gyro scale and misalignment: integrate ω̂ = (I+M_g)⁻¹ (y_g − b_g) (quaternion, RK4) from the end of
+// 4. Gyro scale and misalignment (transitions with a clipped gyro sample are skipped): integrate ω̂ = (I+M_g)⁻¹ (y_g − b_g) (quaternion, RK4) from the end of
 //    pose i to the start of pose i+1; the predicted gravity direction Rᵀ ĝ_i must match ĝ_{i+1}.
-// Weights: the residual scatter (σ² = RSS / (m − p)), since a hand's micro-motion, not sensor noise,
-// dominates the pose-to-pose error. Covariances are per block (accel; gyro bias; gyro scale/misalign),
-// the gyro block conditional on the accelerometer estimate.
+// Weights: the residual scatter (σ² = RSS / (m − p)); a transition's residual is the difference of two
+// unit vectors, which has 2 degrees of freedom, not 3, so m = 2 × transitions. Scatter rather than
+// noise, since a hand's micro-motion, not sensor noise, dominates the pose-to-pose error. Covariance:
+// per block (accel; gyro bias; gyro scale/misalign), plus the accelerometer and gyro-bias uncertainty
+// propagated into the gyro block through its sensitivity to them (sequential estimate, with the
+// cross-covariances).
 #pragma once
 
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -38,6 +42,11 @@ struct RawRecording {
   double gravity_mps2 = 9.80665;
   std::string gravity_source;            // "log metadata" | "normal gravity (latitude/height)" | "standard"
   double rate_hz = 0.0;
+  // Per sample: a gyro count sits at a signed 16-bit limit (−32768 or 32767). Every 16-bit IMU register
+  // and the unsigned-with-offset formats clip there, and a clipped rate loses rotation: transitions
+  // containing such a sample are left out of the gyro fit. Empty = nothing clipped.
+  std::vector<bool> gyro_clipped;
+  std::size_t clipped_samples = 0;
 };
 RawRecording read_recording(io::LogReader& log);
 
@@ -69,6 +78,8 @@ struct ReferenceFreeResult {
   double rotation_rms_before = 0.0; // RMS |ĝ_pred − ĝ| over pose transitions, nominal gyro (+ static bias)
   double rotation_rms_after = 0.0;
   std::array<double, 6> residual_rms{};  // per channel: static-interval scatter after calibration
+  int transitions_used = 0;         // pose-to-pose transitions in the gyro fit
+  int transitions_clipped = 0;      // left out: a gyro sample at full scale
 };
 
 ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::ModelSpec& spec,
@@ -84,12 +95,17 @@ TriadCal triad_from_estimate(const Estimate& e, const std::string& sensor);
 
 // Known-angle check: integrates the calibrated gyro over the whole recording, with the gyro bias
 // re-estimated from the recording's first static interval (turn-on bias changes at every power-up).
+// Throws SolverError when the recording has a clipped gyro sample (the angle would be short).
 struct RotationCheck {
   double angle_deg = 0.0;
   Eigen::Vector3d axis = Eigen::Vector3d::Zero();
   double angle_nominal_deg = 0.0;    // same with nominal scale (bias still removed)
+  // 1σ of angle_deg propagated from the covariance of the gyro scale/misalignment (first order, central
+  // differences); NaN when no covariance was given. The bias is re-estimated, so its σ does not enter.
+  double angle_sigma_deg = std::numeric_limits<double>::quiet_NaN();
 };
 RotationCheck rotation_check(const RawRecording& rec, const TriadCal& gyro, double window_s = 1.0);
+RotationCheck rotation_check(const RawRecording& rec, const Estimate& cal, double window_s = 1.0);
 
 // Integrates ω over samples [i0, i1) with RK4 on the unit quaternion; returns R such that v_start = R v_end.
 Eigen::Matrix3d integrate_rotation(const RawRecording& rec, const TriadCal& gyro, std::size_t i0, std::size_t i1);
