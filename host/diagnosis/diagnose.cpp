@@ -37,6 +37,16 @@ std::string effect_key(Sensor s, Effect e) {
   return std::string(model::sensor_name(s)) + "." + model::effect_info(e).name;
 }
 
+// The nominal input u of output axis a (0…5): specific force for accel.x…z, rate for gyro.x…z.
+// Keep it a branch on two plain subscripts. The shorter `(a < 3 ? f : w)[a % 3]` is miscompiled by GCC 12
+// under -fsanitize=undefined (the instrumented index is computed in the first arm only and the second arm
+// reads a stale one), so the sanitizer build subtracted w[2] from every gyro axis. Guarded by the test
+// DiagnosisPipeline.NominalInputPerAxis, which runs in the host-sanitize preset.
+double nominal_input(const double (&f)[3], const double (&w)[3], int a) {
+  if (a < 3) return f[a];
+  return w[a - 3];
+}
+
 // ---------------------------------------------------------------------------------------------------
 // Pass 0: duration, rate, and a 0.1 s binned temperature series for Ṫ.
 struct Pass0 {
@@ -47,9 +57,11 @@ struct Pass0 {
   std::vector<double> Tdot;  // °C/s per bin
   double tdot_at(double t) const {
     if (Tdot.empty()) return 0.0;
-    long i = static_cast<long>(std::floor((t - t_first) / bin_s));
-    i = std::clamp<long>(i, 0, static_cast<long>(Tdot.size()) - 1);
-    return Tdot[static_cast<std::size_t>(i)];
+    // Clamp in floating point: converting an out-of-range double to an integer is undefined.
+    const double x = std::floor((t - t_first) / bin_s);
+    if (!(x > 0.0)) return Tdot.front();
+    if (x >= static_cast<double>(Tdot.size() - 1)) return Tdot.back();
+    return Tdot[static_cast<std::size_t>(x)];
   }
 };
 
@@ -73,9 +85,10 @@ Pass0 run_pass0(SampleSource& src, const Options& opt) {
     ++p.n;
     if (s.has_ref) ++p.n_ref;
     if (std::isfinite(s.temp_C)) {
-      const std::size_t i = static_cast<std::size_t>((s.t_s - p.t_first) / p.bin_s);
+      const double bin = (s.t_s - p.t_first) / p.bin_s;  // ≥ 0: time never goes backwards here
+      if (!(bin < 1e8 + 1.0)) throw DiagnosisError("log spans an implausible time range");
+      const std::size_t i = static_cast<std::size_t>(bin);
       if (i >= sum.size()) {
-        if (i > 100000000) throw DiagnosisError("log spans an implausible time range");
         sum.resize(i + 1, 0.0);
         cnt.resize(i + 1, 0.0);
       }
@@ -285,7 +298,7 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
       }
       double z[kNumAxes];
       for (int a = 0; a < kNumAxes; ++a) {
-        z[a] = cur.y[a] - (a < 3 ? cur.f : cur.w)[a % 3];
+        z[a] = cur.y[a] - nominal_input(cur.f, cur.w, a);
         b.z[a] += z[a];
         acc.bin_sum[static_cast<std::size_t>(a)] += z[a];
       }
@@ -298,7 +311,7 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
       }
       if (b.n > 0 && have_prev && prev.has_ref) {
         for (int a = 0; a < kNumAxes; ++a) {
-          const double zp = prev.y[a] - (a < 3 ? prev.f : prev.w)[a % 3];
+          const double zp = prev.y[a] - nominal_input(prev.f, prev.w, a);
           out.dz2[static_cast<std::size_t>(a)] += (z[a] - zp) * (z[a] - zp);
         }
         ++out.ndz;
@@ -518,7 +531,7 @@ double variable_of(const Block& b, const std::string& var, int axis) {
   if (var == "rate_rad_s") return b.absw;
   if (var == "time_s") return b.t;
   if (var.rfind("f_", 0) == 0) return b.f[var[2] - 'x'];
-  if (var == "input") return (axis < 3 ? b.f : b.w)[axis % 3];
+  if (var == "input") return nominal_input(b.f, b.w, axis);
   return b.t;
 }
 
@@ -940,7 +953,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
                    rb[static_cast<std::size_t>(a)], pvb[static_cast<std::size_t>(a)]);
   double maxu[kNumAxes] = {}, maxw = 0;
   for (const auto& b : blocks) {
-    for (int a = 0; a < kNumAxes; ++a) maxu[a] = std::max(maxu[a], std::fabs((a < 3 ? b.f : b.w)[a % 3]));
+    for (int a = 0; a < kNumAxes; ++a) maxu[a] = std::max(maxu[a], std::fabs(nominal_input(b.f, b.w, a)));
     maxw = std::max(maxw, b.absw);
   }
   using Pred = std::function<bool(const Block&, int)>;
@@ -956,7 +969,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     const char* ilab[5] = {"u<<0", "u<0", "u~0", "u>0", "u>>0"};
     for (int i = 0; i < 5; ++i)
       defs.push_back({"input", ilab[i], [i, &maxu](const Block& b, int a) {
-                        const double u = (a < 3 ? b.f : b.w)[a % 3], S = std::max(maxu[a], 1e-12);
+                        const double u = nominal_input(b.f, b.w, a), S = std::max(maxu[a], 1e-12);
                         const double r = u / S;
                         const int bin = r < -0.6 ? 0 : r < -0.1 ? 1 : r <= 0.1 ? 2 : r <= 0.6 ? 3 : 4;
                         return bin == i;
