@@ -229,7 +229,7 @@ int run_solve(int argc, char** argv) {
     const char* frame = mount_free ? "body: the frame the model's triangular misalignment defines (mount rotation estimated)"
                                    : "platform: the mount rotation is fixed at zero, misalignments include it";
     res.extra["fixture_errors"] = {{"nuisance", r.nuisance_names}, {"fixed_by_gauge", r.fixed},
-                                   {"iterations", r.iterations}, {"misalignment_frame", frame}};
+                                   {"assumed_zero", r.assumed_zero}, {"iterations", r.iterations}, {"misalignment_frame", frame}};
     if (!r.fixed.empty())
       std::printf("fixture+errors: fixed at 0 (inseparable from others): %s\n", nlohmann::json(r.fixed).dump().c_str());
     std::printf("fixture+errors: misalignment frame: %s\n", frame);

@@ -379,20 +379,11 @@ void FixtureAccumulator::finish() {
   flush_block();
   flush_segment();
   finished_ = true;
-  const size_t np = plateau_n_.size();
-  std::vector<int> order(np);
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) {
-    return plateau_T_sum_[static_cast<size_t>(a)] / static_cast<double>(plateau_n_[static_cast<size_t>(a)]) <
-           plateau_T_sum_[static_cast<size_t>(b)] / static_cast<double>(plateau_n_[static_cast<size_t>(b)]);
-  });
-  discovery_to_sorted_.assign(np, 0);
-  plateaus_sorted_.clear();
-  for (size_t r = 0; r < np; ++r) {
-    const size_t p = static_cast<size_t>(order[r]);
-    discovery_to_sorted_[p] = static_cast<int>(r);
-    plateaus_sorted_.push_back({plateau_T_sum_[p] / static_cast<double>(plateau_n_[p]), plateau_n_[p]});
-  }
+  discovery_to_sorted_ = plateau_ranks();
+  plateaus_sorted_.assign(plateau_n_.size(), PlateauInfo{});
+  for (size_t p = 0; p < plateau_n_.size(); ++p)
+    plateaus_sorted_[static_cast<size_t>(discovery_to_sorted_[p])] = {plateau_T_sum_[p] / static_cast<double>(plateau_n_[p]),
+                                                                      plateau_n_[p]};
   for (auto& kv : segments_) kv.second.plateau = discovery_to_sorted_[static_cast<size_t>(kv.second.plateau)];
   if (samples_used_ == 0) throw SolverError("the log has no sample with a fixture reference inside a dwell");
 }

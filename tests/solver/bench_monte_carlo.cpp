@@ -23,17 +23,13 @@
 
 #include "host/model/sensor_model.h"
 #include "host/solver/fixture.h"
+#include "tests/solver/monte_carlo.h"
 #include "tests/solver/synth.h"
 
 using namespace imuforge;
 using namespace imuforge::solver;
 
 namespace {
-
-double chi2_quantile(double k, double z) {  // Wilson-Hilferty
-  const double a = 2.0 / (9.0 * k);
-  return k * std::pow(1 - a + z * std::sqrt(a), 3);
-}
 
 model::ModelSpec thermal_model(int order) {
   nlohmann::json e;
@@ -96,49 +92,31 @@ int main(int argc, char** argv) {
   Sigma6 sig;
   for (int c = 0; c < 6; ++c) sig[size_t(c)] = cfg.sigma[c];
 
-  Eigen::VectorXd sum_err, sum_sq;
-  Eigen::MatrixXd crb;
-  std::vector<std::string> names;
-  double nees_sum = 0;
+  mc::Stats st;
   const std::clock_t c0 = std::clock();
   for (int s = 0; s < seeds; ++s) {
     FixtureAccumulator acc(spec, synth::meta(cfg));
     synth::generate(cfg, truth, first_seed + std::uint64_t(s), [&](const io::LogRow& r) { acc.add(r); });
     acc.finish();
-    const FixtureSolution sol = solve_fixture(acc, sig);
-    const long n = long(sol.estimate.names.size());
-    if (s == 0) {
-      names = sol.estimate.names;
-      crb = sol.estimate.covariance;  // same design every seed: the Cramér-Rao bound
-      sum_err = Eigen::VectorXd::Zero(n);
-      sum_sq = Eigen::VectorXd::Zero(n);
-    }
-    Eigen::VectorXd err(n);
-    for (long i = 0; i < n; ++i) err[i] = sol.estimate.value[i] - truth.get(names[size_t(i)]);
-    sum_err += err;
-    sum_sq += err.cwiseAbs2();
-    nees_sum += err.dot(sol.estimate.covariance.ldlt().solve(err));
+    st.add(solve_fixture(acc, sig).estimate, truth);
   }
   const double cpu = double(std::clock() - c0) / CLOCKS_PER_SEC;
-  const long n = long(names.size());
-  const double dof = double(n) * seeds;
-  const double lo = chi2_quantile(dof, -1.959964) / seeds, hi = chi2_quantile(dof, 1.959964) / seeds;
-  const double nees = nees_sum / seeds;
+  const long n = st.n();
+  const double nees = st.nees(), lo = st.nees_lo(), hi = st.nees_hi();
+  const std::vector<std::string>& names = st.names;
   double worst_bias = 0, eff_lo = 1e9, eff_hi = 0;
   std::string worst_bias_name, eff_lo_name, eff_hi_name;
   for (long i = 0; i < n; ++i) {
-    const double sd = std::sqrt(crb(i, i));
-    const double bias_z = (sum_err[i] / seeds) / (sd / std::sqrt(double(seeds)));
-    const double eff = std::sqrt(sum_sq[i] / seeds) / sd;
+    const double bias_z = st.bias_z(i), eff = st.efficiency(i);
     if (std::abs(bias_z) > worst_bias) worst_bias = std::abs(bias_z), worst_bias_name = names[size_t(i)];
     if (eff < eff_lo) eff_lo = eff, eff_lo_name = names[size_t(i)];
     if (eff > eff_hi) eff_hi = eff, eff_hi_name = names[size_t(i)];
   }
   // Sampling interval of one parameter's RMS/CRB: sqrt(χ²(N)/N), 95 % two-sided.
-  const double r_lo = std::sqrt(chi2_quantile(seeds, -1.959964) / seeds);
-  const double r_hi = std::sqrt(chi2_quantile(seeds, 1.959964) / seeds);
+  const double r_lo = std::sqrt(mc::chi2_quantile(seeds, -1.959964) / seeds);
+  const double r_hi = std::sqrt(mc::chi2_quantile(seeds, 1.959964) / seeds);
   const double zf = z_upper(0.025 / double(n));  // family-wise 95 % over n parameters
-  const double f_lo = std::sqrt(chi2_quantile(seeds, -zf) / seeds), f_hi = std::sqrt(chi2_quantile(seeds, zf) / seeds);
+  const double f_lo = std::sqrt(mc::chi2_quantile(seeds, -zf) / seeds), f_hi = std::sqrt(mc::chi2_quantile(seeds, zf) / seeds);
   std::printf("Monte Carlo (%s campaign): %d seeds from %llu, %ld parameters, %lld rows per seed\n", which.c_str(), seeds,
               static_cast<unsigned long long>(first_seed), n,
               static_cast<long long>(cfg.plateaus_C.size() * cfg.dwells.size() * (cfg.samples_per_dwell + 1)));
