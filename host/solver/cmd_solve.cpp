@@ -319,6 +319,10 @@ int run_solve(int argc, char** argv) {
       nlohmann::json pl = nlohmann::json::array();
       for (const auto& p : acc.plateaus()) pl.push_back({{"T_C", p.T_C}, {"samples", p.samples}});
       res.extra["plateaus"] = pl;
+      res.extra["transit_samples"] = acc.transit_samples();
+      if (acc.transit_samples() > 0)
+        std::printf("per-plateau model: %lld samples in segments whose temperature moved > 3 °C left out\n",
+                    acc.transit_samples());
     }
     if (a.method == "traditional") {
       TraditionalResult tr = solve_traditional(acc.segments(), spec.T_ref_C);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <tuple>
 
@@ -189,6 +190,8 @@ void FixtureAccumulator::process(const io::LogRow& row, double Tdot_C_s) {
     seg_sum_.segment = row.segment;
     seg_y_sum_.setZero();
     seg_y_sq_.setZero();
+    seg_T_min_C_ = std::numeric_limits<double>::infinity();
+    seg_T_max_C_ = -std::numeric_limits<double>::infinity();
     for (int c = 0; c < kNumChannels; ++c) seg_stats_[static_cast<size_t>(c)].reset(static_cast<int>(ids_[static_cast<size_t>(c / 3)].size()));
   }
   const double key[7] = {row.f_ref[0], row.f_ref[1], row.f_ref[2], row.w_ref[0], row.w_ref[1], row.w_ref[2], d};
@@ -232,6 +235,8 @@ void FixtureAccumulator::process(const io::LogRow& row, double Tdot_C_s) {
   }
   seg_sum_.n += 1;
   seg_sum_.T_C += T;
+  seg_T_min_C_ = std::min(seg_T_min_C_, T);
+  seg_T_max_C_ = std::max(seg_T_max_C_, T);
   for (int k = 0; k < 3; ++k) {
     seg_sum_.f_ref[k] += row.f_ref[k];
     seg_sum_.w_ref[k] += row.w_ref[k];
@@ -359,6 +364,14 @@ void FixtureAccumulator::flush_segment() {
     seg_sum_.var[static_cast<size_t>(c)] =
         n > 1 ? std::max(0.0, (seg_y_sq_[c] - seg_y_sum_[c] * seg_y_sum_[c] / n) / (n - 1)) : 0.0;
   }
+  if (any_per_plateau_ && seg_T_max_C_ - seg_T_min_C_ > kPlateauTolerance_C) {
+    // In transit (a soak after a chamber step, a ramp): a per-plateau value assumes one temperature, and
+    // this segment has none. It would otherwise open a plateau of its own that only it informs.
+    seg_sum_.plateau = -1;
+    transit_samples_ += seg_sum_.n;
+    segments_[seg_sum_.segment] = seg_sum_;
+    return;
+  }
   const int p = plateau_of(seg_sum_.T_C);
   seg_sum_.plateau = p;
   for (int c = 0; c < kNumChannels; ++c) plateau_stats_[static_cast<size_t>(p)][static_cast<size_t>(c)] += seg_stats_[static_cast<size_t>(c)];
@@ -384,8 +397,12 @@ void FixtureAccumulator::finish() {
   for (size_t p = 0; p < plateau_n_.size(); ++p)
     plateaus_sorted_[static_cast<size_t>(discovery_to_sorted_[p])] = {plateau_T_sum_[p] / static_cast<double>(plateau_n_[p]),
                                                                       plateau_n_[p]};
-  for (auto& kv : segments_) kv.second.plateau = discovery_to_sorted_[static_cast<size_t>(kv.second.plateau)];
+  for (auto& kv : segments_)
+    if (kv.second.plateau >= 0) kv.second.plateau = discovery_to_sorted_[static_cast<size_t>(kv.second.plateau)];
   if (samples_used_ == 0) throw SolverError("the log has no sample with a fixture reference inside a dwell");
+  if (plateau_n_.empty())
+    throw SolverError("per-plateau model: every segment is in transit (its temperature moves by more than 3 °C); "
+                      "plateaus need dwells at a settled temperature");
 }
 
 std::vector<int> FixtureAccumulator::plateau_ranks() const {

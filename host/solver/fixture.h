@@ -145,6 +145,10 @@ class FixtureAccumulator {
   Sigma6 residual_rms(const Eigen::VectorXd& theta) const;
   const std::map<int, SegmentSummary>& segments() const { return segments_; }
   long long samples_used() const { return samples_used_; }
+  // Per-plateau models only: samples of segments whose die temperature moved by more than the plateau
+  // tolerance (3 °C). They belong to no plateau (SegmentSummary::plateau = −1, no on_segment call) and
+  // inform no parameter.
+  long long transit_samples() const { return transit_samples_; }
   const model::ModelSpec& spec() const { return spec_; }
   // Local parameter ids of a sensor (catalog ids, spec order).
   const std::vector<model::ParamId>& sensor_ids(model::Sensor s) const { return ids_[static_cast<int>(s)]; }
@@ -200,6 +204,8 @@ class FixtureAccumulator {
   long long var_den_[2] = {};
   double block_T_min_ = 0.0, block_T_max_ = 0.0;
   long long samples_used_ = 0;
+  long long transit_samples_ = 0;
+  double seg_T_min_C_ = 0.0, seg_T_max_C_ = 0.0;
   bool finished_ = false;
 };
 

@@ -37,6 +37,7 @@ TraditionalResult solve_traditional(const std::map<int, SegmentSummary>& segment
   std::map<int, std::pair<double, long long>> pl;
   for (const auto& [id, s] : segments) {
     (void)id;
+    if (s.plateau < 0) continue;  // in transit (fixture.h)
     pl[s.plateau].first += s.T_C * static_cast<double>(s.n);
     pl[s.plateau].second += s.n;
   }

@@ -449,3 +449,37 @@ TEST(FixtureMode, RecursivePerPlateauEqualsBatchWithin1e6Sigma) {
   const double tr = truth.get("gyro.bias.z") + truth.get("gyro.bias_temp.z.t1") * tau + truth.get("gyro.bias_temp.z.t2") * tau * tau;
   EXPECT_LT(std::abs(bpre.estimate.value[k] - tr), 5 * bpre.estimate.sigma()[k] + 0.02 * std::abs(tr));
 }
+
+// The end-of-line campaign soaks 15–20 min after each chamber step, with the table still: the die
+// temperature moves by tens of °C within one static segment. A per-plateau model must not give such a
+// segment a plateau of its own (it used to: 8 plateaus, half of them informed by one orientation, and a
+// rank-deficient solve). Segments in transit are left out; the four setpoints remain.
+TEST(FixtureMode, PerPlateauLeavesTransitSegmentsOut) {
+  const sim::Campaign camp = sim::load_campaign(IMUFORGE_SOURCE_DIR "/docs/examples/campaign-eol.json");
+  const model::SensorModel sensor = model::load_sensor_model(IMUFORGE_SOURCE_DIR "/docs/examples/sensor-matched.json");
+  sim::SimOptions opt;
+  opt.seed = 5;
+  opt.sample_rate_hz = 5;
+  nlohmann::json j = {{"name", "pp"},
+                      {"effects", {{"accel.bias", {{"per_plateau", true}}}, {"accel.scale", {{"per_plateau", true}}}, {"accel.misalign", nlohmann::json::object()},
+                                   {"gyro.bias", {{"per_plateau", true}}}, {"gyro.scale", {{"per_plateau", true}}}, {"gyro.misalign", nlohmann::json::object()}}}};
+  const auto spec = model::model_spec_from_json(j);
+  FixtureAccumulator acc(spec, sim::make_log_meta(camp, sensor, opt));
+  sim::simulate(camp, sensor, opt, [&](const io::LogRow& r) { acc.add(r); });
+  acc.finish();
+  ASSERT_EQ(acc.plateaus().size(), 4u);
+  const double setpoints[4] = {-20, 5, 30, 55};
+  for (int p = 0; p < 4; ++p) EXPECT_NEAR(acc.plateaus()[size_t(p)].T_C, setpoints[p], 0.5);
+  EXPECT_GT(acc.transit_samples(), 0);
+  const FixtureSolution sol = solve_fixture(acc, acc.static_noise_sigma());
+  EXPECT_EQ(sol.observability.rank, sol.observability.n_params);
+  // Each plateau's bias is the sensor's polynomial at the plateau temperature.
+  const model::ParamSet& t = sensor.params;
+  for (int p = 0; p < 4; ++p) {
+    const int i = sol.estimate.index_of("accel.bias.z@plateau" + std::to_string(p));
+    ASSERT_GE(i, 0);
+    const double tau = acc.plateaus()[size_t(p)].T_C - 25.0;
+    const double truth = t.get("accel.bias.z") + t.get("accel.bias_temp.z.t1") * tau + t.get("accel.bias_temp.z.t2") * tau * tau;
+    EXPECT_LT(std::abs(sol.estimate.value[i] - truth), 5 * sol.estimate.sigma()[i]) << p;
+  }
+}
