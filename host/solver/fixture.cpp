@@ -474,24 +474,26 @@ NormalEquations FixtureAccumulator::normal_equations(const Sigma6& sigma) const 
   const int n = static_cast<int>(names().size());
   const int np = num_plateaus();
   NormalEquations ne(n);
-  for (size_t p = 0; p < plateau_stats_.size(); ++p) {
-    const int ps = discovery_to_sorted_[p];
-    for (int c = 0; c < kNumChannels; ++c) {
-      const int s = c / 3;
-      const ChannelStats& cs = plateau_stats_[p][static_cast<size_t>(c)];
-      const double w = 1.0 / (sigma[static_cast<size_t>(c)] * sigma[static_cast<size_t>(c)]);
-      const int nl = static_cast<int>(cs.b.size());
-      std::vector<int> sl(static_cast<size_t>(nl));
-      for (int i = 0; i < nl; ++i) sl[static_cast<size_t>(i)] = slot(s, i, ps, np);
-      for (int i = 0; i < nl; ++i) {
-        ne.rhs[sl[static_cast<size_t>(i)]] += w * cs.b[i];
-        for (int k = 0; k < nl; ++k) ne.info(sl[static_cast<size_t>(i)], sl[static_cast<size_t>(k)]) += w * cs.a(i, k);
-      }
-      ne.cost += w * cs.zz;
-      ne.n_obs += cs.n;
-    }
-  }
+  for (size_t p = 0; p < plateau_stats_.size(); ++p) add_weighted(plateau_stats_[p], sigma, discovery_to_sorted_[p], np, ne);
   return ne;
+}
+
+void FixtureAccumulator::add_weighted(const ChannelSet& set, const Sigma6& sigma, int plateau_rank, int np,
+                                      NormalEquations& ne) const {
+  for (int c = 0; c < kNumChannels; ++c) {
+    const int s = c / 3;
+    const ChannelStats& cs = set[static_cast<size_t>(c)];
+    const double w = 1.0 / (sigma[static_cast<size_t>(c)] * sigma[static_cast<size_t>(c)]);
+    const int nl = static_cast<int>(cs.b.size());
+    std::vector<int> sl(static_cast<size_t>(nl));
+    for (int i = 0; i < nl; ++i) sl[static_cast<size_t>(i)] = slot(s, i, plateau_rank, np);
+    for (int i = 0; i < nl; ++i) {
+      ne.rhs[sl[static_cast<size_t>(i)]] += w * cs.b[i];
+      for (int k = 0; k < nl; ++k) ne.info(sl[static_cast<size_t>(i)], sl[static_cast<size_t>(k)]) += w * cs.a(i, k);
+    }
+    ne.cost += w * cs.zz;
+    ne.n_obs += cs.n;
+  }
 }
 
 NormalEquations FixtureAccumulator::segment_normal_equations(const ChannelSet& seg, const Sigma6& sigma) const {
@@ -510,20 +512,7 @@ NormalEquations FixtureAccumulator::segment_normal_equations(const ChannelSet& s
   }
   const int n = static_cast<int>(slot_names(np).size());
   NormalEquations ne(n);
-  for (int c = 0; c < kNumChannels; ++c) {
-    const int s = c / 3;
-    const ChannelStats& cs = seg[static_cast<size_t>(c)];
-    const double w = 1.0 / (sigma[static_cast<size_t>(c)] * sigma[static_cast<size_t>(c)]);
-    const int nl = static_cast<int>(cs.b.size());
-    std::vector<int> sl(static_cast<size_t>(nl));
-    for (int i = 0; i < nl; ++i) sl[static_cast<size_t>(i)] = slot(s, i, rank, np);
-    for (int i = 0; i < nl; ++i) {
-      ne.rhs[sl[static_cast<size_t>(i)]] += w * cs.b[i];
-      for (int k = 0; k < nl; ++k) ne.info(sl[static_cast<size_t>(i)], sl[static_cast<size_t>(k)]) += w * cs.a(i, k);
-    }
-    ne.cost += w * cs.zz;
-    ne.n_obs += cs.n;
-  }
+  add_weighted(seg, sigma, rank, np, ne);
   return ne;
 }
 

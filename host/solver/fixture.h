@@ -130,6 +130,8 @@ class FixtureAccumulator {
   // Slot names / slot index with `np` plateaus (rank in 0..np−1). names() == slot_names(plateaus so far).
   std::vector<std::string> slot_names(int np) const;
   int slot(int sensor, int local, int plateau_rank, int np) const;
+  // Adds one channel set's statistics, weighted by 1/σ², to ne at the slots of plateau_rank of np.
+  void add_weighted(const ChannelSet& set, const Sigma6& sigma, int plateau_rank, int np, NormalEquations& ne) const;
   // Slots (ascending) of the per-plateau parameters of the plateau with this rank, among np plateaus.
   std::vector<int> plateau_slots(int plateau_rank, int np) const;
   // Weighted normal equations in slot space.
