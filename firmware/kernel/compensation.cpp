@@ -180,6 +180,38 @@ __attribute__((always_inline)) inline std::uint32_t sat_flags16(std::int32_t a0,
   return ((sa >> 14) & kStatusAccelSaturated) | ((sg >> 13) & kStatusGyroSaturated);
 }
 
+// One sample's counts, clamped to the table's raw width, and their saturation flags: the common prologue
+// of both kernels' run functions (K is KernelF32 or KernelQ; both carry the same limits).
+struct Counts {
+  std::int32_t a0, a1, a2, g0, g1, g2;
+};
+
+template <class K>
+__attribute__((always_inline)) inline std::uint32_t load_counts(const K* k, const RawSample16* raw, Counts& c) noexcept {
+  c = {raw->accel[0], raw->accel[1], raw->accel[2], raw->gyro[0], raw->gyro[1], raw->gyro[2]};
+  if (!k->narrow16) return sat_flags16(c.a0, c.a1, c.a2, c.g0, c.g1, c.g2);
+  std::uint32_t sat = 0;
+  c.a0 = clamp_count(c.a0, k->lim16_a, &sat, kStatusAccelSaturated);
+  c.a1 = clamp_count(c.a1, k->lim16_a, &sat, kStatusAccelSaturated);
+  c.a2 = clamp_count(c.a2, k->lim16_a, &sat, kStatusAccelSaturated);
+  c.g0 = clamp_count(c.g0, k->lim16_g, &sat, kStatusGyroSaturated);
+  c.g1 = clamp_count(c.g1, k->lim16_g, &sat, kStatusGyroSaturated);
+  c.g2 = clamp_count(c.g2, k->lim16_g, &sat, kStatusGyroSaturated);
+  return sat;
+}
+
+template <class K>
+__attribute__((always_inline)) inline std::uint32_t load_counts(const K* k, const RawSample32* raw, Counts& c) noexcept {
+  std::uint32_t sat = 0;
+  c.a0 = clamp_count(raw->accel[0], k->lim_a, &sat, kStatusAccelSaturated);
+  c.a1 = clamp_count(raw->accel[1], k->lim_a, &sat, kStatusAccelSaturated);
+  c.a2 = clamp_count(raw->accel[2], k->lim_a, &sat, kStatusAccelSaturated);
+  c.g0 = clamp_count(raw->gyro[0], k->lim_g, &sat, kStatusGyroSaturated);
+  c.g1 = clamp_count(raw->gyro[1], k->lim_g, &sat, kStatusGyroSaturated);
+  c.g2 = clamp_count(raw->gyro[2], k->lim_g, &sat, kStatusGyroSaturated);
+  return sat;
+}
+
 void zero_f32(ImuF32* out) noexcept {
   for (int i = 0; i < 3; ++i) out->accel_mps2[i] = out->gyro_rad_s[i] = 0.0f;
 }
@@ -371,22 +403,10 @@ std::uint32_t kernel_f32_run(KernelF32* k, const RawSample16* raw, float temp_de
     zero_f32(out);
     return kStatusNoTable;
   }
-  std::int32_t a0 = raw->accel[0], a1 = raw->accel[1], a2 = raw->accel[2];
-  std::int32_t g0 = raw->gyro[0], g1 = raw->gyro[1], g2 = raw->gyro[2];
-  std::uint32_t sat;
-  if (k->narrow16) {
-    sat = 0;
-    a0 = clamp_count(a0, k->lim16_a, &sat, kStatusAccelSaturated);
-    a1 = clamp_count(a1, k->lim16_a, &sat, kStatusAccelSaturated);
-    a2 = clamp_count(a2, k->lim16_a, &sat, kStatusAccelSaturated);
-    g0 = clamp_count(g0, k->lim16_g, &sat, kStatusGyroSaturated);
-    g1 = clamp_count(g1, k->lim16_g, &sat, kStatusGyroSaturated);
-    g2 = clamp_count(g2, k->lim16_g, &sat, kStatusGyroSaturated);
-  } else {
-    sat = sat_flags16(a0, a1, a2, g0, g1, g2);
-  }
+  Counts c;
+  const std::uint32_t sat = load_counts(k, raw, c);
   if (!(temp_degC >= k->T_lo_degC && temp_degC <= k->T_hi_degC)) interp_f32(k, temp_degC);
-  affine_f32(k, a0, a1, a2, g0, g1, g2, out);
+  affine_f32(k, c.a0, c.a1, c.a2, c.g0, c.g1, c.g2, out);
   return sat | k->cached_status;
 }
 
@@ -395,15 +415,10 @@ std::uint32_t kernel_f32_run32(KernelF32* k, const RawSample32* raw, float temp_
     zero_f32(out);
     return kStatusNoTable;
   }
-  std::uint32_t sat = 0;
-  const std::int32_t a0 = clamp_count(raw->accel[0], k->lim_a, &sat, kStatusAccelSaturated);
-  const std::int32_t a1 = clamp_count(raw->accel[1], k->lim_a, &sat, kStatusAccelSaturated);
-  const std::int32_t a2 = clamp_count(raw->accel[2], k->lim_a, &sat, kStatusAccelSaturated);
-  const std::int32_t g0 = clamp_count(raw->gyro[0], k->lim_g, &sat, kStatusGyroSaturated);
-  const std::int32_t g1 = clamp_count(raw->gyro[1], k->lim_g, &sat, kStatusGyroSaturated);
-  const std::int32_t g2 = clamp_count(raw->gyro[2], k->lim_g, &sat, kStatusGyroSaturated);
+  Counts c;
+  const std::uint32_t sat = load_counts(k, raw, c);
   if (!(temp_degC >= k->T_lo_degC && temp_degC <= k->T_hi_degC)) interp_f32(k, temp_degC);
-  affine_f32(k, a0, a1, a2, g0, g1, g2, out);
+  affine_f32(k, c.a0, c.a1, c.a2, c.g0, c.g1, c.g2, out);
   return sat | k->cached_status;
 }
 
@@ -487,21 +502,9 @@ std::uint32_t kernel_q_run(KernelQ* k, const RawSample16* raw, std::int32_t temp
     zero_q(out);
     return kStatusNoTable;
   }
-  std::int32_t a0 = raw->accel[0], a1 = raw->accel[1], a2 = raw->accel[2];
-  std::int32_t g0 = raw->gyro[0], g1 = raw->gyro[1], g2 = raw->gyro[2];
-  std::uint32_t sat;
-  if (k->narrow16) {
-    sat = 0;
-    a0 = clamp_count(a0, k->lim16_a, &sat, kStatusAccelSaturated);
-    a1 = clamp_count(a1, k->lim16_a, &sat, kStatusAccelSaturated);
-    a2 = clamp_count(a2, k->lim16_a, &sat, kStatusAccelSaturated);
-    g0 = clamp_count(g0, k->lim16_g, &sat, kStatusGyroSaturated);
-    g1 = clamp_count(g1, k->lim16_g, &sat, kStatusGyroSaturated);
-    g2 = clamp_count(g2, k->lim16_g, &sat, kStatusGyroSaturated);
-  } else {
-    sat = sat_flags16(a0, a1, a2, g0, g1, g2);
-  }
-  return sat | run_q_core(k, a0, a1, a2, g0, g1, g2, temp_q16_degC, out);
+  Counts c;
+  const std::uint32_t sat = load_counts(k, raw, c);
+  return sat | run_q_core(k, c.a0, c.a1, c.a2, c.g0, c.g1, c.g2, temp_q16_degC, out);
 }
 
 std::uint32_t kernel_q_run32(KernelQ* k, const RawSample32* raw, std::int32_t temp_q16_degC, ImuQ* out) noexcept {
@@ -509,14 +512,9 @@ std::uint32_t kernel_q_run32(KernelQ* k, const RawSample32* raw, std::int32_t te
     zero_q(out);
     return kStatusNoTable;
   }
-  std::uint32_t sat = 0;
-  const std::int32_t a0 = clamp_count(raw->accel[0], k->lim_a, &sat, kStatusAccelSaturated);
-  const std::int32_t a1 = clamp_count(raw->accel[1], k->lim_a, &sat, kStatusAccelSaturated);
-  const std::int32_t a2 = clamp_count(raw->accel[2], k->lim_a, &sat, kStatusAccelSaturated);
-  const std::int32_t g0 = clamp_count(raw->gyro[0], k->lim_g, &sat, kStatusGyroSaturated);
-  const std::int32_t g1 = clamp_count(raw->gyro[1], k->lim_g, &sat, kStatusGyroSaturated);
-  const std::int32_t g2 = clamp_count(raw->gyro[2], k->lim_g, &sat, kStatusGyroSaturated);
-  return sat | run_q_core(k, a0, a1, a2, g0, g1, g2, temp_q16_degC, out);
+  Counts c;
+  const std::uint32_t sat = load_counts(k, raw, c);
+  return sat | run_q_core(k, c.a0, c.a1, c.a2, c.g0, c.g1, c.g2, temp_q16_degC, out);
 }
 
 }  // namespace imuforge::fw
