@@ -398,7 +398,11 @@ int kernel_f32_load(KernelF32* k, const Table* t) noexcept {
   return 0;
 }
 
-std::uint32_t kernel_f32_run(KernelF32* k, const RawSample16* raw, float temp_degC, ImuF32* out) noexcept {
+namespace {
+// The per-sample path of both raw widths (inlined: the 16-bit one is what bench-kernel counts).
+template <class Raw>
+__attribute__((always_inline)) inline std::uint32_t run_f32(KernelF32* k, const Raw* raw, float temp_degC,
+                                                            ImuF32* out) noexcept {
   if (k->table == nullptr) {
     zero_f32(out);
     return kStatusNoTable;
@@ -409,17 +413,14 @@ std::uint32_t kernel_f32_run(KernelF32* k, const RawSample16* raw, float temp_de
   affine_f32(k, c.a0, c.a1, c.a2, c.g0, c.g1, c.g2, out);
   return sat | k->cached_status;
 }
+}  // namespace
+
+std::uint32_t kernel_f32_run(KernelF32* k, const RawSample16* raw, float temp_degC, ImuF32* out) noexcept {
+  return run_f32(k, raw, temp_degC, out);
+}
 
 std::uint32_t kernel_f32_run32(KernelF32* k, const RawSample32* raw, float temp_degC, ImuF32* out) noexcept {
-  if (k->table == nullptr) {
-    zero_f32(out);
-    return kStatusNoTable;
-  }
-  Counts c;
-  const std::uint32_t sat = load_counts(k, raw, c);
-  if (!(temp_degC >= k->T_lo_degC && temp_degC <= k->T_hi_degC)) interp_f32(k, temp_degC);
-  affine_f32(k, c.a0, c.a1, c.a2, c.g0, c.g1, c.g2, out);
-  return sat | k->cached_status;
+  return run_f32(k, raw, temp_degC, out);
 }
 
 // ------------------------------------------------------------------------------------ fixed API
@@ -497,7 +498,10 @@ int kernel_q_load(KernelQ* k, const Table* t) noexcept {
   return 0;
 }
 
-std::uint32_t kernel_q_run(KernelQ* k, const RawSample16* raw, std::int32_t temp_q16_degC, ImuQ* out) noexcept {
+namespace {
+template <class Raw>
+__attribute__((always_inline)) inline std::uint32_t run_q(KernelQ* k, const Raw* raw, std::int32_t temp_q16_degC,
+                                                          ImuQ* out) noexcept {
   if (!k->has_table) {
     zero_q(out);
     return kStatusNoTable;
@@ -506,15 +510,14 @@ std::uint32_t kernel_q_run(KernelQ* k, const RawSample16* raw, std::int32_t temp
   const std::uint32_t sat = load_counts(k, raw, c);
   return sat | run_q_core(k, c.a0, c.a1, c.a2, c.g0, c.g1, c.g2, temp_q16_degC, out);
 }
+}  // namespace
+
+std::uint32_t kernel_q_run(KernelQ* k, const RawSample16* raw, std::int32_t temp_q16_degC, ImuQ* out) noexcept {
+  return run_q(k, raw, temp_q16_degC, out);
+}
 
 std::uint32_t kernel_q_run32(KernelQ* k, const RawSample32* raw, std::int32_t temp_q16_degC, ImuQ* out) noexcept {
-  if (!k->has_table) {
-    zero_q(out);
-    return kStatusNoTable;
-  }
-  Counts c;
-  const std::uint32_t sat = load_counts(k, raw, c);
-  return sat | run_q_core(k, c.a0, c.a1, c.a2, c.g0, c.g1, c.g2, temp_q16_degC, out);
+  return run_q(k, raw, temp_q16_degC, out);
 }
 
 }  // namespace imuforge::fw
