@@ -162,13 +162,6 @@ int run_solve(int argc, char** argv) {
 
   if (a.mode == "reference-free") {
     if (a.method == "traditional") throw SolverError("the traditional method needs a fixture (six positions, CW/CCW)");
-    for (const auto& me : spec.effects)
-      if (me.effect == model::Effect::kTempRate)
-        throw SolverError(std::string("reference-free mode cannot estimate ") + model::sensor_name(me.sensor) +
-                          ".temp_rate: the mode has no temperature model (its hand-held recordings are short, at "
-                          "nearly constant temperature or without temp_C, so r*dT/dt is not observable, and "
-                          "during a static pose it would be indistinguishable from the bias); estimate temp_rate in "
-                          "fixture mode from a campaign with temperature ramps (docs/calibration.md)");
     RawRecording rec = read_recording(log);
     ReferenceFreeOptions rfo;
     rfo.window_s = a.static_window_s;
@@ -222,11 +215,8 @@ int run_solve(int argc, char** argv) {
     res.noise_sigma = r.noise_sigma;
     res.noise_source = "static";
     res.samples = r.samples;
-    const bool mount_free = std::count_if(r.nuisance_names.begin(), r.nuisance_names.end(), [](const std::string& n) {
-                              return n.rfind("fixture.mount.", 0) == 0;
-                            }) == 3;
     // Which frame the misalignments are in follows from the gauge (fixture_errors.h).
-    const char* frame = mount_free ? "body: the frame the model's triangular misalignment defines (mount rotation estimated)"
+    const char* frame = r.mount_estimated ? "body: the frame the model's triangular misalignment defines (mount rotation estimated)"
                                    : "platform: the mount rotation is fixed at zero, misalignments include it";
     res.extra["fixture_errors"] = {{"nuisance", r.nuisance_names}, {"fixed_by_gauge", r.fixed},
                                    {"assumed_zero", r.assumed_zero}, {"iterations", r.iterations}, {"misalignment_frame", frame}};

@@ -238,10 +238,7 @@ LmResult levenberg_marquardt(const NonlinearProblem& problem, Eigen::VectorXd th
         }
       }
     }
-    if (res.converged || !accepted) {
-      res.converged = res.converged || false;
-      break;
-    }
+    if (res.converged || !accepted) break;
   }
   res.theta = theta;
   res.normal = ne;

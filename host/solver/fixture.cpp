@@ -157,10 +157,7 @@ void FixtureAccumulator::add(const io::LogRow& row) {
     process(row, 0.0);
     return;
   }
-  tdot_->push(row);
-  io::LogRow r;
-  double q = 0.0;
-  while (tdot_->pop(r, q)) process(r, q);
+  tdot_->feed(row, [this](const io::LogRow& r, double q) { process(r, q); });
 }
 
 void FixtureAccumulator::process(const io::LogRow& row, double Tdot_C_s) {
@@ -383,12 +380,7 @@ void FixtureAccumulator::flush_segment() {
 
 void FixtureAccumulator::finish() {
   if (finished_) return;
-  if (tdot_) {
-    tdot_->close();
-    io::LogRow r;
-    double q = 0.0;
-    while (tdot_->pop(r, q)) process(r, q);
-  }
+  if (tdot_) tdot_->finish([this](const io::LogRow& r, double q) { process(r, q); });
   flush_block();
   flush_segment();
   finished_ = true;

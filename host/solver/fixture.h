@@ -66,7 +66,7 @@ struct PlateauInfo {
 // the last row at ≤ t_i + window (one-sided at the log's ends); 0 when either end has no temperature.
 // Every row is delayed until the first row later than t_i + window arrives (or close() is called), so
 // memory is bounded by the rows in one ±window span, never by the log length.
-//   push(row); while (pop(row, Tdot)) use(row, Tdot);   …   close(); while (pop(row, Tdot)) …
+//   feed(row, use) for every row, then finish(use); use(row, Tdot) sees each row once, in time order.
 class CenteredTempRate {
  public:
   explicit CenteredTempRate(double window_s);
@@ -77,6 +77,18 @@ class CenteredTempRate {
   void close();
   // Next row (time order) whose Ṫ is final; false if none yet.
   bool pop(io::LogRow& row, double& Tdot_C_s);
+  // push(row), then use(row, Ṫ) for every row that became final.
+  template <class F>
+  void feed(const io::LogRow& row, F&& use) {
+    push(row);
+    drain(use);
+  }
+  // close(), then use(row, Ṫ) for every pending row.
+  template <class F>
+  void finish(F&& use) {
+    close();
+    drain(use);
+  }
   double window_s() const { return window_s_; }
   std::size_t pending() const { return rows_.size(); }
   // 20 s at 200 kHz: far above any IMU log; beyond it timestamps are stuck or the window is absurd.
@@ -84,6 +96,12 @@ class CenteredTempRate {
 
  private:
   void release(std::size_t i, double t_hi, double T_hi);
+  template <class F>
+  void drain(F& use) {
+    io::LogRow r;
+    double q = 0.0;
+    while (pop(r, q)) use(r, q);
+  }
   double window_s_;
   std::deque<io::LogRow> rows_;               // pending rows; the first n_ready_ have a final Ṫ
   std::deque<double> tdot_;                   // Ṫ of the ready rows

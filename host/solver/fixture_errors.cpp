@@ -67,7 +67,6 @@ class FixtureErrorsProblem : public NonlinearProblem {
   }
   int n_model() const { return static_cast<int>(ids_all_.size()); }
   int num_params() const override { return n_model() + static_cast<int>(nu_.size()); }
-  const std::vector<Nuisance>& nuisance() const { return nu_; }
   long long samples() const { return samples_; }
   Sigma6 residual_rms() const { return rms_; }
 
@@ -96,6 +95,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
     Eigen::MatrixXd info = Eigen::MatrixXd::Zero(n, n);
     Eigen::VectorXd jrow(n);
     std::array<Eigen::Matrix<double, 3, Eigen::Dynamic>, 2> J;
+    Eigen::Matrix<double, 3, Eigen::Dynamic> dn(3, nn);  // ∂prediction/∂nuisance of one triad
     for (int s = 0; s < 2; ++s) J[static_cast<size_t>(s)].resize(3, static_cast<long>(ids_[static_cast<size_t>(s)].size()));
     Sigma6 rss{};
     long long count = 0;
@@ -135,7 +135,6 @@ class FixtureErrorsProblem : public NonlinearProblem {
         const auto& ids = ids_[static_cast<size_t>(s)];
         if (!ids.empty()) model::regressors(static_cast<Sensor>(s), ids, in0, spec_.T_ref_C, J[static_cast<size_t>(s)]);
         const Eigen::Vector3d p0 = model::measure(ct[s], in0);
-        Eigen::Matrix<double, 3, Eigen::Dynamic> dn(3, nn);
         for (int k = 0; k < nn; ++k) {
           const Eigen::Vector3d pp = model::measure(ct[s], input(kin[static_cast<size_t>(1 + 2 * k)]));
           const Eigen::Vector3d pm = model::measure(ct[s], input(kin[static_cast<size_t>(2 + 2 * k)]));
@@ -157,21 +156,11 @@ class FixtureErrorsProblem : public NonlinearProblem {
       ++count;
     };
     io::LogRow row;
-    double q = 0.0;
     while (log_.next(row)) {
-      if (!tdot) {
-        process(row, 0.0);
-        continue;
-      }
-      tdot->push(row);
-      io::LogRow r;
-      while (tdot->pop(r, q)) process(r, q);
+      if (tdot) tdot->feed(row, process);
+      else process(row, 0.0);
     }
-    if (tdot) {
-      tdot->close();
-      io::LogRow r;
-      while (tdot->pop(r, q)) process(r, q);
-    }
+    if (tdot) tdot->finish(process);
     ne.info = info.selfadjointView<Eigen::Lower>();
     ne.n_obs = 6 * count;
     samples_ = count;
@@ -211,7 +200,6 @@ class FixtureErrorsProblem : public NonlinearProblem {
 //     first order. Innermost axis first, the mount last, so the mount stays an output where it can.
 struct GaugeDecision {
   std::vector<int> fixed;  // nuisance indices
-  bool mount_fixed = false;
 };
 
 // Columns spanning {c : a c = 0}, from the SVD of a.
@@ -225,14 +213,8 @@ Eigen::MatrixXd null_columns(const Eigen::MatrixXd& a, double tol) {
   return svd.matrixV().rightCols(k - r);
 }
 
-long count_above(const Eigen::MatrixXd& a, double tol) {
-  if (a.rows() == 0 || a.cols() == 0) return 0;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a);
-  long r = 0;
-  for (long i = 0; i < svd.singularValues().size(); ++i)
-    if (svd.singularValues()[i] > tol) ++r;
-  return r;
-}
+// Number of singular values of a above tol.
+long count_above(const Eigen::MatrixXd& a, double tol) { return a.cols() - null_columns(a, tol).cols(); }
 
 GaugeDecision choose_gauge(const Eigen::MatrixXd& info, const std::vector<std::string>& names, int nm,
                            const std::vector<model::ParamId>& model_ids, const std::vector<Nuisance>& nu, double tol) {
@@ -317,7 +299,6 @@ GaugeDecision choose_gauge(const Eigen::MatrixXd& info, const std::vector<std::s
     if (dim2 < dim) {
       g.fixed = F;
       dim = dim2;
-      g.mount_fixed = g.mount_fixed || nu[static_cast<size_t>(i)].axis < 0;
     }
   }
   if (dim > 0) throw SolverError("fixture+errors: internal: could not choose a gauge for the nuisance parameters");
@@ -371,7 +352,6 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
     prob.linearize(x0, ne);
     const GaugeDecision g = choose_gauge(ne.info, names, nm, spec.parameters(), nu, opt.gauge_tolerance);
     for (int k : g.fixed) res.fixed.push_back(nu[static_cast<size_t>(k)].name);
-    res.mount_fixed = g.mount_fixed;
     std::vector<Nuisance> keep;
     for (int k = 0; k < static_cast<int>(nu.size()); ++k)
       if (std::find(g.fixed.begin(), g.fixed.end(), k) == g.fixed.end()) keep.push_back(nu[static_cast<size_t>(k)]);
@@ -387,6 +367,7 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
   const LmResult lm = levenberg_marquardt(prob, x0, lo);
   if (!lm.converged) throw SolverError("fixture+errors: Levenberg-Marquardt did not converge in " +
                                        std::to_string(lm.iterations) + " iterations");
+  res.mount_estimated = std::count_if(nu.begin(), nu.end(), [](const Nuisance& n) { return n.axis < 0; }) == 3;
   names.resize(static_cast<size_t>(nm));
   for (const auto& n : nu) {
     names.push_back(n.name);

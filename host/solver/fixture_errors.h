@@ -53,7 +53,9 @@ struct FixtureErrorsResult {
   std::vector<std::string> nuisance_names;  // free: fixture.axis<i>.tilt_a|tilt_b|zero, fixture.mount.r*
   std::vector<std::string> fixed;           // nuisance fixed at 0 by the gauge (see above)
   std::vector<std::string> assumed_zero;    // FixtureErrorsOptions::assume_zero
-  bool mount_fixed = false;                 // platform convention: misalignments include the mount rotation
+  // The mount rotation is estimated (body frame: intrinsic misalignments); false in the platform
+  // convention, where the misalignments include the mount rotation (docs/calibration.md).
+  bool mount_estimated = false;
   int iterations = 0;
 };
 

@@ -355,6 +355,12 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
   for (const auto& w : wanted) {
     const bool basic = w.find(".bias.") != std::string::npos || w.find(".scale.") != std::string::npos ||
                        w.find(".misalign.") != std::string::npos;
+    if (w.find(".temp_rate.") != std::string::npos)
+      throw SolverError("reference-free mode cannot estimate " + w +
+                        ": the mode has no temperature model (its hand-held recordings are short, at nearly constant "
+                        "temperature or without temp_C, so r*dT/dt is not observable, and during a static pose it "
+                        "would be indistinguishable from the bias); estimate temp_rate in fixture mode from a "
+                        "campaign with temperature ramps (docs/calibration.md)");
     if (!basic)
       throw SolverError("reference-free mode estimates bias, scale and misalign only; the model also asks for " + w);
     if (w == "accel.misalign.xy" || w == "accel.misalign.xz" || w == "accel.misalign.yz") res.gauge_fixed.push_back(w);

@@ -27,6 +27,7 @@
 #include "host/model/sensor_model.h"
 #include "host/solver/reference_free.h"
 #include "host/model/measure.h"
+#include "tests/solver/turn.h"
 
 using namespace imuforge;
 using namespace imuforge::solver;
@@ -173,24 +174,7 @@ TEST(ReferenceFreeChecks, RotationCheckSigmaIsPropagatedFromTheGyroScale) {
   // misalignments enter at second order only.
   model::ParamSet truth;
   truth.set("gyro.scale.x", 0.02);
-  const auto cg = model::compile(truth, model::Sensor::kGyro, 25.0);
-  RawRecording rec;
-  rec.rate_hz = 100;
-  std::mt19937_64 rng(3);
-  std::normal_distribution<double> n01;
-  double t = 0;
-  auto emit = [&](const Eigen::Vector3d& w) {
-    model::MeasureInput in;
-    in.w = w;
-    const Eigen::Vector3d y = model::measure(cg, in);
-    rec.t_s.push_back(t);
-    rec.y.push_back({1e-4 * n01(rng), 1e-4 * n01(rng), 9.8 + 1e-4 * n01(rng), y[0] + 1e-5 * n01(rng),
-                     y[1] + 1e-5 * n01(rng), y[2] + 1e-5 * n01(rng)});
-    t += 0.01;
-  };
-  for (int i = 0; i < 500; ++i) emit(Eigen::Vector3d::Zero());
-  for (int i = 0; i < 200; ++i) emit(Eigen::Vector3d(M_PI / 4, 0, 0));
-  for (int i = 0; i < 500; ++i) emit(Eigen::Vector3d::Zero());
+  const RawRecording rec = turn::quarter_turn_about_x(truth, 1e-4, 1e-5, 3);
   Estimate cal;
   cal.names = {"gyro.scale.x", "gyro.misalign.yx", "gyro.misalign.zx"};
   cal.value = Eigen::Vector3d(0.02, 0.0, 0.0);

@@ -9,6 +9,7 @@
 #include "host/model/measure.h"
 #include "host/model/sensor_model.h"
 #include "host/solver/reference_free.h"
+#include "tests/solver/turn.h"
 
 using namespace imuforge;
 using namespace imuforge::solver;
@@ -99,27 +100,8 @@ TEST(ReferenceFree, RecoversAccelAndGyroFromStaticPoses) {
 
 TEST(ReferenceFree, RotationCheckRecoversTheAngle) {
   auto truth = handheld_truth();
-  // A recording with exactly one 90° rotation about x.
-  RawRecording rec;
-  rec.rate_hz = 100;
-  const auto cg = model::compile(truth, model::Sensor::kGyro, 25.0);
-  double t = 0;
-  auto emit = [&](const Eigen::Vector3d& w) {
-    model::MeasureInput in;
-    in.w = w;
-    const Eigen::Vector3d y = model::measure(cg, in);
-    rec.t_s.push_back(t);
-    rec.y.push_back({0, 0, 9.8, y[0], y[1], y[2]});
-    t += 0.01;
-  };
-  for (int i = 0; i < 500; ++i) emit(Eigen::Vector3d::Zero());
-  for (int i = 0; i < 200; ++i) emit(Eigen::Vector3d(M_PI / 2 / 2.0, 0, 0));
-  for (int i = 0; i < 500; ++i) emit(Eigen::Vector3d::Zero());
-  // Static detection needs some noise to find a floor.
-  std::mt19937_64 rng(1);
-  std::normal_distribution<double> n01;
-  for (auto& y : rec.y)
-    for (auto& v : y) v += 1e-4 * n01(rng);
+  // A recording with exactly one 90° rotation about x (noise: static detection needs a floor to find).
+  const RawRecording rec = turn::quarter_turn_about_x(truth, 1e-4, 1e-4, 1);
   Estimate cal;
   cal.names = {"gyro.scale.x", "gyro.misalign.yx", "gyro.misalign.zx"};
   cal.value = Eigen::Vector3d(truth.get("gyro.scale.x"), truth.get("gyro.misalign.yx"), truth.get("gyro.misalign.zx"));
