@@ -1,5 +1,6 @@
 #include "host/solver/table_out.h"
 
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -45,33 +46,52 @@ void check_expressible(const Estimate& e) {
   }
 }
 
-TriadAt triad_at(const Estimate& e, const std::string& s, double T_C, double T_ref_C, int plateau) {
-  TriadAt t;
-  const double tau = T_C - T_ref_C;
-  auto get = [&](const std::string& name, double& out) {
+// The triad's coefficients as polynomials in τ = T − T_ref (power 0..3), looked up by name once: the
+// per-sample check below only evaluates them. `plateau` ≥ 0 also reads "<name>@plateau<k>".
+struct TriadPoly {
+  std::array<Eigen::Vector3d, 4> b;
+  std::array<Eigen::Matrix3d, 4> M;
+  TriadAt at(double tau) const {
+    TriadAt t;
+    double tp = 1.0;
+    for (int p = 0; p <= 3; ++p, tp *= tau) {
+      t.b += tp * b[static_cast<size_t>(p)];
+      t.M += tp * M[static_cast<size_t>(p)];
+    }
+    return t;
+  }
+};
+
+TriadPoly triad_poly(const Estimate& e, const std::string& s, int plateau) {
+  TriadPoly t;
+  for (int p = 0; p <= 3; ++p) {
+    t.b[static_cast<size_t>(p)].setZero();
+    t.M[static_cast<size_t>(p)].setZero();
+  }
+  auto get = [&](const std::string& name) {
     int i = e.index_of(name);
     if (i < 0 && plateau >= 0) i = e.index_of(name + "@plateau" + std::to_string(plateau));
-    if (i >= 0) out = e.value[i];
-    return i >= 0;
+    return i >= 0 ? e.value[i] : 0.0;
   };
   for (int j = 0; j < 3; ++j) {
-    double v = 0;
-    if (get(s + ".bias." + kAx[j], v)) t.b[j] += v;
-    if (get(s + ".scale." + kAx[j], v)) t.M(j, j) += v;
+    t.b[0][j] = get(s + ".bias." + kAx[j]);
+    t.M[0](j, j) = get(s + ".scale." + kAx[j]);
     for (int p = 1; p <= 3; ++p) {
-      const double tp = std::pow(tau, p);
-      if (get(s + ".bias_temp." + kAx[j] + ".t" + std::to_string(p), v)) t.b[j] += v * tp;
-      if (get(s + ".scale_temp." + kAx[j] + ".t" + std::to_string(p), v)) t.M(j, j) += v * tp;
+      t.b[static_cast<size_t>(p)][j] = get(s + ".bias_temp." + kAx[j] + ".t" + std::to_string(p));
+      t.M[static_cast<size_t>(p)](j, j) = get(s + ".scale_temp." + kAx[j] + ".t" + std::to_string(p));
     }
     for (int k = 0; k < 3; ++k) {
       if (k == j) continue;
       const std::string c = std::string(1, kAx[j]) + kAx[k];
-      if (get(s + ".misalign." + c, v)) t.M(j, k) += v;
-      for (int p = 1; p <= 3; ++p)
-        if (get(s + ".misalign_temp." + c + ".t" + std::to_string(p), v)) t.M(j, k) += v * std::pow(tau, p);
+      t.M[0](j, k) = get(s + ".misalign." + c);
+      for (int p = 1; p <= 3; ++p) t.M[static_cast<size_t>(p)](j, k) = get(s + ".misalign_temp." + c + ".t" + std::to_string(p));
     }
   }
   return t;
+}
+
+TriadAt triad_at(const Estimate& e, const std::string& s, double T_C, double T_ref_C, int plateau) {
+  return triad_poly(e, s, plateau).at(T_C - T_ref_C);
 }
 }  // namespace
 
@@ -152,41 +172,44 @@ TableReport write_coefficient_table(const CalibrationResult& res, io::LogReader&
   rep.bytes = bytes.size();
   rep.breakpoints_C = bps;
   table::HostKernel k(tbl, table::KernelPath::kF32, 0.0);
+  // Reference compensation (C, b per triad): per plateau, interpolated between the breakpoints as the
+  // table does; with polynomials, the exact inverse at the sample's temperature.
+  struct Comp {
+    Eigen::Matrix3d Ca, Cg;
+    Eigen::Vector3d ba, bg;
+  };
+  std::vector<Comp> at_bp;
+  if (per_plateau)
+    for (size_t i = 0; i < bps.size(); ++i) {
+      const TriadAt a = triad_at(e, "accel", bps[i], res.T_ref_C, static_cast<int>(i));
+      const TriadAt g = triad_at(e, "gyro", bps[i], res.T_ref_C, static_cast<int>(i));
+      at_bp.push_back({(Eigen::Matrix3d::Identity() + a.M).inverse(), (Eigen::Matrix3d::Identity() + g.M).inverse(), a.b, g.b});
+    }
+  const TriadPoly pa = triad_poly(e, "accel", -1), pg = triad_poly(e, "gyro", -1);
   log.rewind();
   std::array<double, 6> ss{};
   while (log.next(row)) {
     const double T = std::isfinite(row.temp_C) ? std::min(std::max(row.temp_C, bps.front()), bps.back()) : bps.front();
     const table::CompensatedSample out = k.run(row.raw, row.temp_C);
-    int plateau = -1;
-    if (per_plateau) {  // the table interpolates between plateaus; so does the reference
+    Comp r;
+    if (per_plateau) {
       size_t i = 0;
       while (i + 1 < bps.size() && bps[i + 1] < T) ++i;
       const size_t i1 = std::min(i + 1, bps.size() - 1);
       const double w = i1 == i ? 0.0 : (T - bps[i]) / (bps[i1] - bps[i]);
-      const TriadAt a0 = triad_at(e, "accel", bps[i], res.T_ref_C, static_cast<int>(i));
-      const TriadAt a1 = triad_at(e, "accel", bps[i1], res.T_ref_C, static_cast<int>(i1));
-      const TriadAt g0 = triad_at(e, "gyro", bps[i], res.T_ref_C, static_cast<int>(i));
-      const TriadAt g1 = triad_at(e, "gyro", bps[i1], res.T_ref_C, static_cast<int>(i1));
-      const Eigen::Matrix3d Ca = (1 - w) * (Eigen::Matrix3d::Identity() + a0.M).inverse() + w * (Eigen::Matrix3d::Identity() + a1.M).inverse();
-      const Eigen::Matrix3d Cg = (1 - w) * (Eigen::Matrix3d::Identity() + g0.M).inverse() + w * (Eigen::Matrix3d::Identity() + g1.M).inverse();
-      const Eigen::Vector3d ba = (1 - w) * a0.b + w * a1.b, bg = (1 - w) * g0.b + w * g1.b;
-      const Eigen::Vector3d ya(row.raw[0] * spec.accel_lsb_mps2, row.raw[1] * spec.accel_lsb_mps2, row.raw[2] * spec.accel_lsb_mps2);
-      const Eigen::Vector3d yg(row.raw[3] * spec.gyro_lsb_rad_s, row.raw[4] * spec.gyro_lsb_rad_s, row.raw[5] * spec.gyro_lsb_rad_s);
-      const Eigen::Vector3d fa = Ca * (ya - ba), wg = Cg * (yg - bg);
-      for (int c = 0; c < 3; ++c) {
-        ss[static_cast<size_t>(c)] += std::pow(out.accel_mps2[c] - fa[c], 2);
-        ss[static_cast<size_t>(3 + c)] += std::pow(out.gyro_rad_s[c] - wg[c], 2);
-      }
+      const Comp& c0 = at_bp[i];
+      const Comp& c1 = at_bp[i1];
+      r = {(1 - w) * c0.Ca + w * c1.Ca, (1 - w) * c0.Cg + w * c1.Cg, (1 - w) * c0.ba + w * c1.ba, (1 - w) * c0.bg + w * c1.bg};
     } else {
-      const TriadAt a = triad_at(e, "accel", T, res.T_ref_C, plateau), g = triad_at(e, "gyro", T, res.T_ref_C, plateau);
-      const Eigen::Vector3d ya(row.raw[0] * spec.accel_lsb_mps2, row.raw[1] * spec.accel_lsb_mps2, row.raw[2] * spec.accel_lsb_mps2);
-      const Eigen::Vector3d yg(row.raw[3] * spec.gyro_lsb_rad_s, row.raw[4] * spec.gyro_lsb_rad_s, row.raw[5] * spec.gyro_lsb_rad_s);
-      const Eigen::Vector3d fa = (Eigen::Matrix3d::Identity() + a.M).lu().solve(ya - a.b);
-      const Eigen::Vector3d wg = (Eigen::Matrix3d::Identity() + g.M).lu().solve(yg - g.b);
-      for (int c = 0; c < 3; ++c) {
-        ss[static_cast<size_t>(c)] += std::pow(out.accel_mps2[c] - fa[c], 2);
-        ss[static_cast<size_t>(3 + c)] += std::pow(out.gyro_rad_s[c] - wg[c], 2);
-      }
+      const TriadAt a = pa.at(T - res.T_ref_C), g = pg.at(T - res.T_ref_C);
+      r = {(Eigen::Matrix3d::Identity() + a.M).inverse(), (Eigen::Matrix3d::Identity() + g.M).inverse(), a.b, g.b};
+    }
+    const Eigen::Vector3d ya(row.raw[0] * spec.accel_lsb_mps2, row.raw[1] * spec.accel_lsb_mps2, row.raw[2] * spec.accel_lsb_mps2);
+    const Eigen::Vector3d yg(row.raw[3] * spec.gyro_lsb_rad_s, row.raw[4] * spec.gyro_lsb_rad_s, row.raw[5] * spec.gyro_lsb_rad_s);
+    const Eigen::Vector3d fa = r.Ca * (ya - r.ba), wg = r.Cg * (yg - r.bg);
+    for (int c = 0; c < 3; ++c) {
+      ss[static_cast<size_t>(c)] += std::pow(out.accel_mps2[c] - fa[c], 2);
+      ss[static_cast<size_t>(3 + c)] += std::pow(out.gyro_rad_s[c] - wg[c], 2);
     }
     ++rep.samples;
   }
