@@ -10,6 +10,7 @@
 #include <string>
 
 #include "host/app/command.h"
+#include "host/io/campaign_file.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/solver/calfile.h"
@@ -112,9 +113,9 @@ void apply_fixture_tolerance(CalibrationResult& res, io::LogReader& log, const m
   if (a.campaign.empty())
     throw SolverError(where + " states \"fixture_tolerance\": pass --campaign C.json (the table geometry) so the solver "
                       "can carry the tolerance into σ");
-  sim::Campaign c;
+  physics::Campaign c;
   try {
-    c = sim::load_campaign(a.campaign);
+    c = io::load_campaign(a.campaign);
   } catch (const std::exception& e) {
     throw SolverError("campaign '" + a.campaign + "': " + e.what());
   }

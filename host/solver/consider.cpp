@@ -99,7 +99,7 @@ std::optional<FixtureTolerance> fixture_tolerance_of(const model::ModelSpec& spe
   return fixture_tolerance_from_json(*it, n_axes, where);
 }
 
-ConsiderResult consider_fixture_tolerance(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& campaign,
+ConsiderResult consider_fixture_tolerance(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& campaign,
                                           const Estimate& est, const Sigma6& sigma, const FixtureTolerance& tol) {
   const int nm = static_cast<int>(spec.parameters().size());
   const int ne = static_cast<int>(est.names.size());

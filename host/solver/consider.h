@@ -32,7 +32,7 @@
 
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 #include "host/solver/estimate.h"
 #include "host/solver/fixture.h"
 
@@ -67,7 +67,7 @@ struct ConsiderResult {
 // estimated, with the noise-only covariance; `sigma` the per-channel noise σ the solve weighted with.
 // One streaming pass over the log (rewound first). Throws SolverError when the log cannot be linearised
 // against the campaign's table (fixture_joint_information()).
-ConsiderResult consider_fixture_tolerance(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& campaign,
+ConsiderResult consider_fixture_tolerance(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& campaign,
                                           const Estimate& est, const Sigma6& sigma, const FixtureTolerance& tol);
 
 // Replaces est.covariance by r.covariance (the honest one) and returns the cal.json "fixture_tolerance"

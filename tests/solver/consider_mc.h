@@ -14,7 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/io/campaign_file.h"
 #include "host/sim/simulator.h"
 #include "host/solver/consider.h"
 #include "host/solver/fixture.h"
@@ -50,7 +50,7 @@ struct ConsiderDraw {
 inline ConsiderDraw consider_draw(const nlohmann::json& campaign, const imuforge::model::SensorModel& sensor,
                                   const imuforge::model::ModelSpec& spec, std::uint64_t seed, const std::string& tmp_dir) {
   using namespace imuforge;
-  const sim::Campaign c = sim::campaign_from_json(campaign);
+  const physics::Campaign c = io::campaign_from_json(campaign);
   sim::SimOptions opt;
   opt.seed = seed;
   const std::string path = tmp_dir + "consider_mc_" + std::to_string(seed) + ".bin";
