@@ -87,13 +87,13 @@ def case_hash(kind, seed, opt):
     return h[:16]
 
 
-def make(work, name, kind, seed, opt, fmt):
+def make(work, name, kind, seed, opt, fmt, reuse=False):
     d = os.path.join(work, 'cases', name)
     h = case_hash(kind, seed, opt)
     tp = os.path.join(d, 'truth.json')
     if os.path.exists(tp):
         t = json.load(open(tp))
-        if t.get('case_hash') == h and os.path.exists(os.path.join(d, 'log.' + fmt)):
+        if (reuse or t.get('case_hash') == h) and os.path.exists(os.path.join(d, 'log.' + fmt)):
             return d, t
     shutil.rmtree(d, ignore_errors=True)
     opt2 = dict(opt)
@@ -333,6 +333,8 @@ def main(argv):
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
     ap.add_argument('--only', help='comma-separated substrings of case names')
+    ap.add_argument('--reuse', action='store_true', help='use cached cases even if the generator changed since (re-score old cases)')
+    ap.add_argument('--diag-tag', default='diag', help='output folder name per case (keeps several diagnoses side by side)')
     ap.add_argument('--json', help='write per-case scores and the summary here')
     ap.add_argument('--floors', help='regression floors JSON: exit 1 when a figure is below its floor')
     a = ap.parse_args(argv)
@@ -345,16 +347,16 @@ def main(argv):
         cat = kind
         row = {'name': name, 'category': cat}
         try:
-            d, truth = make(a.work, name, kind, seed, opt, a.format)
+            d, truth = make(a.work, name, kind, seed, opt, a.format, a.reuse)
             log = os.path.join(d, 'log.' + a.format)
-            out = os.path.join(d, 'diag')
+            out = os.path.join(d, a.diag_tag)
             if a.source == 'simulate':
                 if truth['out_of_catalog'] or truth['noise_extra'] or kind == 'ooc_noise':
                     continue  # the simulator cannot express these
                 log, sd = simulate_log(a.imuforge, d, truth, a.work, name)
                 if log is None:
                     raise RuntimeError(sd)
-                out = os.path.join(sd, 'diag')
+                out = os.path.join(sd, a.diag_tag)
             dj, info = run_diagnose(a.imuforge, log, a.model, out)
             if dj is None:
                 raise RuntimeError(info)

@@ -154,34 +154,52 @@ class Scenario:
         return ang, rate, acc
 
     def attitude(self, ang):
-        """C_n<-plat = Rz(outer) Rx(middle) Rz(inner)."""
-        return rz(ang[:, 2]) @ rx(ang[:, 1]) @ rz(ang[:, 0])
+        """C_n<-plat = Rz(outer) Rx(middle) Rz(inner), written out (selftest checks it against the product)."""
+        ci, si = np.cos(ang[:, 0]), np.sin(ang[:, 0])
+        cm, sm = np.cos(ang[:, 1]), np.sin(ang[:, 1])
+        co, so = np.cos(ang[:, 2]), np.sin(ang[:, 2])
+        C = np.empty((len(ang), 3, 3))
+        C[:, 0, 0] = co * ci - so * cm * si
+        C[:, 0, 1] = -co * si - so * cm * ci
+        C[:, 0, 2] = so * sm
+        C[:, 1, 0] = so * ci + co * cm * si
+        C[:, 1, 1] = -so * si + co * cm * ci
+        C[:, 1, 2] = -co * sm
+        C[:, 2, 0] = sm * si
+        C[:, 2, 1] = sm * ci
+        C[:, 2, 2] = cm
+        return C
 
     def body_rate_nb(self, ang, rate):
-        """Platform rate w.r.t. the local level frame, platform axes."""
-        R0t = np.swapaxes(rz(ang[:, 0]), -1, -2)
-        R1t = np.swapaxes(rx(ang[:, 1]), -1, -2)
-        ez = np.array([0.0, 0.0, 1.0])
-        ex = np.array([1.0, 0.0, 0.0])
-        w = rate[:, 0:1] * ez + mv(R0t, rate[:, 1:2] * ex) + mv(R0t, mv(R1t, rate[:, 2:3] * ez))
-        return w
-
-    def _w_ib_plat(self, idx, tau):
-        ang, rate, _ = self.gimbal(idx, tau)
-        C = self.attitude(ang)
-        return self.body_rate_nb(ang, rate) + mtv(C, np.broadcast_to(self.w_ie_n, (len(tau), 3))), C, ang, rate
+        """Platform rate w.r.t. the local level frame, platform axes:
+        w = rate_inner e_z + Rz(inner)^T (rate_middle e_x) + Rz(inner)^T Rx(middle)^T (rate_outer e_z)."""
+        ci, si = np.cos(ang[:, 0]), np.sin(ang[:, 0])
+        cm, sm = np.cos(ang[:, 1]), np.sin(ang[:, 1])
+        return np.stack([rate[:, 1] * ci + rate[:, 2] * si * sm,
+                         -rate[:, 1] * si + rate[:, 2] * ci * sm,
+                         rate[:, 0] + rate[:, 2] * cm], -1)
 
     def kinematics(self, t, h=1e-4):
         """True inputs at times t (arrays), platform frame: f (at the IMU reference point), w_ib, wdot,
         plus gimbal angles/rates. The segment is the one containing t, so derivatives never straddle a
-        pose jump (instantaneous changes have no defined derivative at the jump)."""
+        pose jump (instantaneous changes have no defined derivative at the jump).
+        wdot = d/dt w_nb (central difference of the gimbal rates, same segment) - w_nb x (C^T w_ie): the
+        second term is the exact derivative of the Earth rate seen in the turning platform."""
         t = np.asarray(t, float)
         idx = self.seg_index(t)
         tau = t - self.t0s[idx]
-        w, C, ang, rate = self._w_ib_plat(idx, tau)
-        wp, _, _, _ = self._w_ib_plat(idx, tau + h)
-        wm, _, _, _ = self._w_ib_plat(idx, tau - h)
-        wdot = (wp - wm) / (2 * h)
+        ang, rate, _ = self.gimbal(idx, tau)
+        C = self.attitude(ang)
+        w_nb = self.body_rate_nb(ang, rate)
+        w_ie_b = mtv(C, np.broadcast_to(self.w_ie_n, (len(t), 3)))
+        w = w_nb + w_ie_b
+        moving = np.any(self.rates[idx] != 0, axis=1) | (self.sines[idx, 0] >= 0)
+        wdot = np.zeros_like(w)
+        if np.any(moving):
+            m = np.nonzero(moving)[0]
+            ap, rp, _ = self.gimbal(idx[m], tau[m] + h)
+            am, rm, _ = self.gimbal(idx[m], tau[m] - h)
+            wdot[m] = (self.body_rate_nb(ap, rp) - self.body_rate_nb(am, rm)) / (2 * h) - np.cross(w_nb[m], w_ie_b[m])
         f = mtv(C, np.broadcast_to(np.array([0.0, 0.0, -self.g]), (len(t), 3)))
         r = np.broadcast_to(self.r, f.shape)
         f = f + np.cross(wdot, r) + np.cross(w, np.cross(w, r))
@@ -935,6 +953,19 @@ def selftest():
         print('%-60s %s %s' % (name, 'ok' if cond else 'FAIL', detail))
         ok &= bool(cond)
 
+    angs = np.random.default_rng(5).uniform(-4, 4, (50, 3))
+    Cp = rz(angs[:, 2]) @ rx(angs[:, 1]) @ rz(angs[:, 0])
+    check('attitude closed form = Rz(outer) Rx(middle) Rz(inner)', np.max(np.abs(Scenario.attitude(None, angs) - Cp)) < 1e-14)
+    rts = np.random.default_rng(6).uniform(-2, 2, (50, 3))
+    R0t, R1t = np.swapaxes(rz(angs[:, 0]), -1, -2), np.swapaxes(rx(angs[:, 1]), -1, -2)
+    wref = rts[:, 0:1] * np.array([0, 0, 1.0]) + mv(R0t, rts[:, 1:2] * np.array([1.0, 0, 0])) + mv(R0t, mv(R1t, rts[:, 2:3] * np.array([0, 0, 1.0])))
+    check('gimbal rate closed form', np.max(np.abs(Scenario.body_rate_nb(None, angs, rts) - wref)) < 1e-14)
+    # body rate = vee(C^T dC/dt) by finite differences
+    hh = 1e-6
+    dC = (Scenario.attitude(None, angs + hh * rts) - Scenario.attitude(None, angs - hh * rts)) / (2 * hh)
+    W = np.einsum('nji,njk->nik', Cp, dC)
+    vee = np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], -1)
+    check('gimbal rate = vee(C^T dC/dt)', np.max(np.abs(vee - wref)) < 1e-8)
     g = normal_gravity(45.0, 0.0)
     check('normal gravity at 45 deg, h=0 (Somigliana, TR8350.2 constants: 9.8061978)', abs(g - 9.8061978) < 1e-7, '%.8f' % g)
     rng = np.random.default_rng(1)
