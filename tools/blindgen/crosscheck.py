@@ -136,6 +136,28 @@ def recover(path, axis_col, kind, T_ref=25.0, thr=0.5):
     return coef[0]
 
 
+def both_logs(imuforge, work, key, comps, spec, camp, seed):
+    """The effect alone through blindgen and `imuforge simulate`: (blindgen log, simulate log, simulate truth)
+    or None (after printing why) when the simulator refuses."""
+    sensor = ideal_sensor()
+    sensor['effects'] = {key: comps}
+    d = os.path.join(work, key)
+    os.makedirs(d, exist_ok=True)
+    sp = os.path.join(d, 'sensor.json')
+    with open(sp, 'w') as f:
+        json.dump(sensor, f)
+    case = {'seed': seed, 'scenario': spec, 'sensor': sensor, 'ooc': [], 'noise_extra': [], 'truth': {'kind': 'x'}}
+    blindgen.generate(case, os.path.join(d, 'blind'), 'csv')
+    simlog = os.path.join(d, 'sim.csv')
+    tr = os.path.join(d, 'sim_truth.json')
+    p = subprocess.run([imuforge, 'simulate', '--campaign', camp, '--sensor', sp, '--seed', str(seed), '--out', simlog,
+                        '--truth', tr, '--no-fixture-errors', '--quiet'], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    if p.returncode != 0:
+        print('%-28s simulate failed: %s' % (key, p.stderr.decode()[:200]))
+        return None
+    return os.path.join(d, 'blind', 'log.csv'), simlog, tr
+
+
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
@@ -162,25 +184,13 @@ def main(argv):
     for key, comps in EFFECTS:
         if a.only and a.only not in key:
             continue
-        sensor = ideal_sensor()
-        sensor['effects'] = {key: comps}
-        d = os.path.join(a.work, key)
-        os.makedirs(d, exist_ok=True)
-        sp = os.path.join(d, 'sensor.json')
-        with open(sp, 'w') as f:
-            json.dump(sensor, f)
-        case = {'seed': seed, 'scenario': spec, 'sensor': sensor, 'ooc': [], 'noise_extra': [], 'truth': {'kind': 'x'}}
-        blindgen.generate(case, os.path.join(d, 'blind'), 'csv')
-        simlog = os.path.join(d, 'sim.csv')
-        tr = os.path.join(d, 'sim_truth.json')
-        p = subprocess.run([a.imuforge, 'simulate', '--campaign', camp, '--sensor', sp, '--seed', str(seed), '--out', simlog,
-                            '--truth', tr, '--no-fixture-errors', '--quiet'], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-        if p.returncode != 0:
-            print('%-28s simulate failed: %s' % (key, p.stderr.decode()[:200]))
+        logs = both_logs(a.imuforge, a.work, key, comps, spec, camp, seed)
+        if logs is None:
             bad.append(key)
             continue
+        mylog, simlog, tr = logs
         sim_labels = [(s['id'], s.get('label', '')) for s in json.load(open(tr))['segments']]
-        mine = residual_means(os.path.join(d, 'blind', 'log.csv'), my_labels)
+        mine = residual_means(mylog, my_labels)
         theirs = residual_means(simlog, sim_labels)
         sig, dif, worst = 0.0, 0.0, None
         for k, (r1, ref1) in mine.items():
@@ -209,24 +219,13 @@ def main(argv):
     for key, comps, axc, kind, true in THERMAL:
         if a.only and a.only not in key:
             continue
-        sensor = ideal_sensor()
-        sensor['effects'] = {key: comps}
-        d = os.path.join(a.work, key)
-        os.makedirs(d, exist_ok=True)
-        sp = os.path.join(d, 'sensor.json')
-        with open(sp, 'w') as f:
-            json.dump(sensor, f)
-        case = {'seed': seed, 'scenario': spec2, 'sensor': sensor, 'ooc': [], 'noise_extra': [], 'truth': {'kind': 'x'}}
-        blindgen.generate(case, os.path.join(d, 'blind'), 'csv')
-        simlog = os.path.join(d, 'sim.csv')
-        p = subprocess.run([a.imuforge, 'simulate', '--campaign', camp2, '--sensor', sp, '--seed', str(seed), '--out', simlog,
-                            '--no-fixture-errors', '--quiet'], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-        if p.returncode != 0:
-            print('%-28s simulate failed: %s' % (key, p.stderr.decode()[:200]))
+        logs = both_logs(a.imuforge, a.work, key, comps, spec2, camp2, seed)
+        if logs is None:
             bad.append(key)
             continue
-        thr = float(sensor['thermal'].get('hysteresis_threshold_C', 0.5))
-        c1 = recover(os.path.join(d, 'blind', 'log.csv'), axc, kind, thr=thr)
+        mylog, simlog, _ = logs
+        thr = float(ideal_sensor()['thermal'].get('hysteresis_threshold_C', 0.5))
+        c1 = recover(mylog, axc, kind, thr=thr)
         c2 = recover(simlog, axc, kind, thr=thr)
         ok = abs(c1 - c2) <= 0.1 * abs(true) and np.sign(c1) == np.sign(true)
         print('%-28s %12.4g %12.4g %12.4g %s' % (key + ' ' + '/'.join(comps), true, c1, c2, 'agree' if ok else 'DISAGREE'))
