@@ -516,6 +516,75 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T):
 
 # ----------------------------------------------------------------------------------------------------
 # Generation.
+# ----------------------------------------------------------------------------------------------------
+# Detectability: how far above the noise an effect stands on THIS scenario once the base model
+# (model-thermal: bias, scale, misalign, bias_temp t1-t2, scale_temp t1) has absorbed what it can.
+# Chunk means (segments cut at 30 s) of the effect's own signal are projected off the base model's regressors
+# (weighted by the chunk-mean noise variance: white N^2/T + flicker floor (0.664 B)^2 + RRW K^2 T/3); the SNR
+# is sqrt(sum of weighted squared residuals) over the triad's three axes. It ignores the other effects of the
+# case and within-chunk structure, so it is a guide (recall is also reported over effects with SNR >= 10).
+def beyond_model_keys(sensor_json):
+    out = []
+    for s, ee in sensor_effects(sensor_json).items():
+        for e, comps in ee.items():
+            if e in STOCHASTIC or e in MODEL_THERMAL[s]:
+                continue
+            if any(v != 0.0 for k, v in comps.items() if k != 'tau_s'):
+                out.append('%s.%s' % (s, e))
+    return sorted(out)
+
+
+def _chunks(scn, t, seg_idx):
+    tau = t - scn.t0s[seg_idx]
+    key = seg_idx.astype(np.int64) * 100000 + np.floor(tau / 30.0).astype(np.int64)
+    _, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
+    return inv, cnt
+
+
+def _cmean(x, chunks):
+    inv, cnt = chunks
+    return np.bincount(inv, weights=x, minlength=len(cnt)) / cnt
+
+
+def effect_snr(key, case, scn, t, chunks, inputs, die, Tdot, d, T_ref, f_ref, w_ref):
+    s, e = key.split('.', 1)
+    eff = sensor_effects(case['sensor'])[s]
+    f_i, w_i, wd_i, _, _, _ = inputs[s]
+    u = f_i if s == 'accel' else w_i
+    if e == 'timing':
+        f0, w0, _, _, _, _ = scn.imu_inputs(t)
+        sig = u - (f0 if s == 'accel' else w0)
+    else:
+        sig = deterministic_output({e: eff[e]}, u, f_i, w_i, wd_i, die, Tdot, d, T_ref, s) - u
+    uref = f_ref if s == 'accel' else w_ref
+    tau = die - T_ref
+    inv, cnt = chunks
+    T = cnt / scn.fs
+    total = 0.0
+    for j, aj in enumerate(AX):
+        cols = [np.ones_like(tau), tau, tau * tau, uref[:, j], tau * uref[:, j]] + [uref[:, k] for k in range(3) if k != j]
+        X = np.column_stack([_cmean(c, chunks) for c in cols])
+        z = _cmean(sig[:, j], chunks)
+        N = eff.get('white_noise', {}).get(aj, 0.0)
+        B = eff.get('bias_instability', {}).get(aj, 0.0)
+        K = eff.get('rate_random_walk', {}).get(aj, 0.0)
+        var = N * N / T + (0.664 * B) ** 2 + K * K * T / 3 + float(case['sensor'][s]['lsb']) ** 2 / 12 / cnt
+        for x in case.get('noise_extra', []):
+            if x['sensor'] == s and x['axis'] == aj:
+                if x['kind'] == 'gm':
+                    var = var + gm_avar(x['sigma'], x['tau_s'], T)
+                elif x['kind'] == 'flicker':
+                    var = var + (0.664 * x['B']) ** 2
+                elif x['kind'] == 'rrw':
+                    var = var + x['K'] ** 2 * T / 3
+        w = 1.0 / np.maximum(var, 1e-300)
+        sw = np.sqrt(w)
+        beta, *_ = np.linalg.lstsq(X * sw[:, None], z * sw, rcond=None)
+        r = z - X @ beta
+        total += float(np.sum(w * r * r))
+    return math.sqrt(total)
+
+
 def generate(case, out_dir, fmt='csv'):
     """case: {'scenario': spec, 'sensor': sensor JSON, 'ooc': [...], 'noise_extra': [...], 'seed': int}."""
     seed = int(case['seed'])
@@ -534,15 +603,37 @@ def generate(case, out_dir, fmt='csv'):
 
     # references: the reported (nominal, error-free) kinematics at the log time, platform = nominal IMU frame
     f_ref, w_ref, _, ang, rate, seg_idx = scn.kinematics(t)
+    inputs = {}
+    for s in ('accel', 'gyro'):
+        tm = eff[s].get('timing', {})
+        ts = t - tm.get('latency_s', 0.0) - tm.get('ppm', 0.0) * 1e-6 * t  # the sample stamped t reads the input at ts
+        inputs[s] = scn.imu_inputs(ts)
+    # detectability of each beyond-model effect (and, for single cases, scale it up to a target SNR)
+    snr = {}
+    if case.get('score_snr', True):
+        chunks = _chunks(scn, t, seg_idx)
+        for key in beyond_model_keys(sensor):
+            snr[key] = effect_snr(key, case, scn, t, chunks, inputs, die, Tdot, d, T_ref, f_ref, w_ref)
+        tgt = case.get('target_snr')
+        if tgt:
+            for key, v in list(snr.items()):
+                goal = tgt[key] if isinstance(tgt, dict) else tgt
+                if 0 < v < goal:
+                    s_, e_ = key.split('.', 1)
+                    comps = case['sensor']['effects'][key]
+                    for c in comps:
+                        if not c.startswith('_') and c != 'enabled':
+                            comps[c] = float(comps[c]) * goal / v
+                    eff = sensor_effects(sensor)
+                    if e_ == 'timing':
+                        tm = eff[s_]['timing']
+                        inputs[s_] = scn.imu_inputs(t - tm.get('latency_s', 0.0) - tm.get('ppm', 0.0) * 1e-6 * t)
+                    snr[key] = effect_snr(key, case, scn, t, chunks, inputs, die, Tdot, d, T_ref, f_ref, w_ref)
     y = {}
     realised = {}
     for s in ('accel', 'gyro'):
         e = eff[s]
-        tm = e.get('timing', {})
-        lat = tm.get('latency_s', 0.0)
-        ppm = tm.get('ppm', 0.0)
-        ts = t - lat - ppm * 1e-6 * t  # the sample stamped t reads the input at t - latency - ppm*1e-6*t
-        f_i, w_i, wd_i, ang_s, _, _ = scn.imu_inputs(ts)
+        f_i, w_i, wd_i, ang_s, _, _ = inputs[s]
         u = f_i if s == 'accel' else w_i
         ys = deterministic_output(e, u, f_i, w_i, wd_i, die, Tdot, d, T_ref, s)
         for o in case.get('ooc', []):
@@ -627,7 +718,7 @@ def generate(case, out_dir, fmt='csv'):
     path = os.path.join(out_dir, 'log.' + ('bin' if fmt == 'bin' else 'csv'))
     write_log(path, meta, t, segment_col, temp_C, chamber_C, f_ref, w_ref, counts['accel'], counts['gyro'], tbl, fmt)
     segs = [{'id': i, 't0_s': s.t0, 't1_s': s.t0 + s.dur, 'kind': s.kind, 'label': s.label} for i, s in enumerate(scn.segments)]
-    return {'rows': n, 'duration_s': scn.duration, 'realised': realised, 'log': path,
+    return {'rows': n, 'duration_s': scn.duration, 'realised': realised, 'log': path, 'snr': snr,
             'lever_arm_m': scn.r.tolist(), 'mount_error_rad': scn.mount_err.tolist(), 'gravity_mps2': scn.g,
             'segments': segs, 'T_die_range_C': [float(die.min()), float(die.max())],
             '_arrays': {'t': t, 'seg': segment_col, 'die': die, 'Tdot': Tdot, 'd': d, 'f': f_ref, 'w': w_ref, 'ang': ang}}
@@ -814,7 +905,8 @@ def seg_noise(sensor_json, key, T_seg=5.0):
     return math.sqrt(N * N / T_seg + (0.664 * B) ** 2 + lsb * lsb / 12 / (T_seg * 100))
 
 
-def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, g2_squares=False, ooc_kind=None):
+def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, g2_squares=False, ooc_kind=None,
+              timing=None):
     rng = np.random.default_rng(np.random.SeedSequence([seed, 12]))
     cls = cls or str(rng.choice(CLASSES))
     truth = {'kind': kind, 'sensor_class': cls, 'ooc': [], 'noise_extra': []}
@@ -833,8 +925,14 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
         for key in keys:
             sensor['effects'][str(key)] = draw_effect(rng, str(key), cls, g2_squares=g2_squares)
     elif kind == 'single':
+        # at the class magnitude, raised (never lowered) to an SNR of 10-30 on this scenario: the same
+        # regime as the project's own single-effect battery (10 sigma), from an independent generator
         key = effect or str(rng.choice(CANDIDATES))
         sensor['effects'][key] = draw_effect(rng, key, cls, g2_squares=g2_squares)
+        target_snr = float(rng.uniform(10, 30))
+        if timing is not None:  # a given latency/clock drift (e.g. >= 1 s accumulated over the run), not scaled
+            sensor['effects'][key] = dict(timing)
+            target_snr = None
     elif kind == 'stochastic':
         # colored noise well above the class' own: single GM (tau 60 s), flicker GM sums, RRW, quantization
         for ax in rng.choice(STOCH_AXES, size=3, replace=False):
@@ -881,7 +979,12 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
         pass
     elif kind != 'example':
         raise ValueError('unknown kind ' + kind)
-    return {'seed': seed, 'scenario': scenario, 'sensor': sensor, 'ooc': ooc, 'noise_extra': noise_extra, 'truth': truth}
+    case = {'seed': seed, 'scenario': scenario, 'sensor': sensor, 'ooc': ooc, 'noise_extra': noise_extra, 'truth': truth}
+    if kind == 'single' and target_snr:
+        case['target_snr'] = target_snr
+    # a quarter of the cases log no table columns (table_axes = 0): references only, like many blind logs
+    scenario['log_table'] = seed % 4 != 0
+    return case
 
 
 def expectations(case):
@@ -930,6 +1033,7 @@ def write_case(case, out_dir, fmt='csv', name=None):
         'realised': info['realised'], 'lever_arm_m': info['lever_arm_m'], 'mount_error_rad': info['mount_error_rad'],
         'gravity_mps2': info['gravity_mps2'], 'rows': info['rows'], 'duration_s': info['duration_s'],
         'T_die_range_C': info['T_die_range_C'], 'scenario': case['scenario'], 'segments': len(info['segments']),
+        'snr': info['snr'],
     }
     truth['expect'] = {
         'selected': exp['beyond_model'],
@@ -1013,13 +1117,15 @@ def main(argv):
     c.add_argument('--class', dest='cls', choices=CLASSES)
     c.add_argument('--effect', help='kind single: e.g. gyro.g_sensitivity')
     c.add_argument('--ooc', help='kind ooc: heading | bias_step | w_cubed | abs_rate | periodic')
+    c.add_argument('--timing', help='kind single, effect *.timing: JSON of the components, e.g. {"ppm": 400}')
     c.add_argument('--g2-squares', action='store_true', help='also draw IEEE 1431 g^2 squares (x.xx ...)')
     c.add_argument('--format', default='csv', choices=['csv', 'bin'])
     sub.add_parser('selftest', help='closed-form checks of the generator itself')
     a = ap.parse_args(argv)
     if a.cmd == 'selftest':
         return 0 if selftest() else 1
-    case = make_case(a.kind, a.seed, a.size, a.sensor, a.cls, a.effect, a.g2_squares, a.ooc)
+    case = make_case(a.kind, a.seed, a.size, a.sensor, a.cls, a.effect, a.g2_squares, a.ooc,
+                     json.loads(a.timing) if a.timing else None)
     truth, info = write_case(case, a.out, a.format)
     print('%s: %d rows, %.0f s, beyond model: %s, unexplained: %s' % (info['log'], info['rows'], info['duration_s'],
           ' '.join(truth['beyond_model']) or '-', ' '.join(truth['unexplained_axes']) or '-'))
