@@ -346,7 +346,35 @@ def check_floors(S, floors_path):
     return bad
 
 
+def selftest():
+    """The scorer on hand-written diagnosis.json fragments (so the floors mean what they say)."""
+    truth = {'kind': 'ooc', 'beyond_model': [], 'unexplained_axes': ['gyro.x'], 'parameters': {}, 'snr': {}}
+    d = {'selected': [], 'unexplained': [{'axis': 'gyro.x', 'chi2_dof_after': 40.0, 'signature': [{'input': 'cos(tbl_angle_2)', 'correlation': 0.93}]}],
+         'gap_after': {'gyro.x': {'heldout_chi2_dof': 40.0}}}
+    ok = score(truth, d)['pass'] is True
+    ok &= score(truth, {'selected': [], 'gap_after': {}})['pass'] is False                       # key absent = not flagged
+    ok &= score(truth, dict(d, selected=[{'sensor': 'gyro', 'effect': 'g2_sensitivity'}]))['pass'] is False
+    t2 = {'kind': 'random', 'beyond_model': ['gyro.g_sensitivity', 'accel.timing'], 'unexplained_axes': [], 'parameters': {},
+          'snr': {'gyro.g_sensitivity': 50.0, 'accel.timing': 3.0}}
+    r = score(t2, {'selected': [{'sensor': 'gyro', 'effect': 'g_sensitivity'}, {'sensor': 'gyro', 'effect': 'temp_rate'},
+                                {'sensor': 'gyro', 'effect': 'bias_instability'}], 'gap_after': {}})
+    ok &= r['recall'] == 0.5 and r['recall_detectable'] == 1.0 and r['false'] == 1   # stochastic findings are not false effects
+    t3 = {'kind': 'single', 'beyond_model': ['gyro.g_sensitivity'], 'unexplained_axes': [], 'snr': {},
+          'parameters': {'gyro.g_sensitivity.xz': 1e-4}}
+    d3 = {'selected': [{'sensor': 'gyro', 'effect': 'g_sensitivity'}], 'gap_after': {},
+          'ranking': [{'sensor': 'gyro', 'effect': 'g_sensitivity', 'excitable': True, 'magnitude': []}],
+          'parameters': [{'name': 'gyro.g_sensitivity.xz', 'value': 1.05e-4, 'sigma': 1e-6}]}
+    r3 = score(t3, d3)
+    ok &= r3['top1'] and not r3['mag3sigma']                                                  # 5 sigma off
+    d3['parameters'][0]['sigma'] = 2e-6
+    ok &= score(t3, d3)['mag3sigma']
+    print('battery scorer selftest: %s' % ('ok' if ok else 'FAIL'))
+    return 0 if ok else 1
+
+
 def main(argv):
+    if argv[:1] == ['selftest']:
+        return selftest()
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
