@@ -2,7 +2,7 @@
 """blindgen: an independent IMU log generator for validating `imuforge diagnose`.
 
 Written from the documentation only (docs/formats.md "Log format v1" and "Sensor model file",
-docs/error-model.md, IEEE Std 952 / 1293 / 1431 error models), NOT from host/sim or host/model: it
+docs/error-model.md, IEEE Std 952 / 1293 / 1431 error models), NOT from host/sim, host/physics or host/model: it
 shares no code with the program it checks, so a convention slip in either one shows up as a
 disagreement (see FINDINGS / docs/diagnosis.md "Blind battery").
 
