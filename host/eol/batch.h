@@ -63,7 +63,9 @@ struct ParameterSpread {
 
 struct BatchOptions {
   int threads = 0;                  // 0: std::thread::hardware_concurrency()
-  double outlier_k = 5.0;           // |x − median| > k · robust σ (and > 3 σ of the unit itself)
+  // |x − median| > k · robust σ (and > 3 σ of the unit itself). 6, not 3: a batch of 16 units and 42
+  // parameters makes 672 comparisons against a MAD that is itself uncertain to ±30 %.
+  double outlier_k = 6.0;
   int min_units_for_outliers = 5;   // fewer units: no spread statistics
 };
 
