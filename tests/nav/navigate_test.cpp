@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/navigate/candidates.h"
 #include "host/navigate/impact.h"
@@ -149,4 +150,31 @@ TEST(Navigate, CommandWritesBothOutputsAndNamesBadInput) {
   EXPECT_EQ(run_cli("--trajectory " + traj + " --sensor " + sensor + " --cal /nonexistent/cal.json --out " + dir2.string(), &out), 1);
   EXPECT_NE(out.find("/nonexistent/cal.json"), std::string::npos) << out;
   EXPECT_FALSE(fs::exists(dir2 / "nav.json"));
+}
+
+// `imuforge simulate --trajectory`: a log v1 of the vehicle, the truth as reference, no fixture dwells.
+TEST(Navigate, SimulateWritesAVehicleLog) {
+  if (!fs::exists(IMUFORGE_BIN)) GTEST_SKIP() << "imuforge not built";
+  const fs::path log = fs::temp_directory_path() / "imuforge_nav_vehicle.bin";
+  const std::string cmd = std::string(IMUFORGE_BIN) + " simulate --quiet --trajectory " + kSrc +
+                          "/docs/examples/trajectory-urban.json --sensor " + kSrc +
+                          "/docs/examples/sensor-consumer.json --seed 3 --out " + log.string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  io::LogReader r(log.string());
+  EXPECT_EQ(r.meta().sample_rate_hz, 200.0);
+  io::LogRow row;
+  long n = 0;
+  double fz_sum = 0, raw_z_sum = 0;
+  while (r.next(row)) {
+    EXPECT_EQ(row.segment, -1);
+    if (n < 2000) {  // parked: f = (0, 0, −g) in the body frame
+      fz_sum += row.f_ref[2];
+      raw_z_sum += row.raw[2] * r.meta().accel_lsb_mps2;
+    }
+    ++n;
+  }
+  EXPECT_EQ(n, 119755);
+  EXPECT_NEAR(fz_sum / 2000, -r.meta().gravity_mps2, 1e-6);
+  EXPECT_NEAR(raw_z_sum / 2000, -r.meta().gravity_mps2, 0.5);  // bias, scale and noise of a consumer part
+  fs::remove(log);
 }
