@@ -75,13 +75,15 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       std::vector<std::string> by;
       for (const auto& st : r.selected)
         if (st.sensor == sensor) by.push_back(st.effect);
-      if (by.empty()) {
+      if (!std::isfinite(r.gap_after.chi2_dof[u])) {
+        line += "too short to tell (fewer than 3 segments: nothing can be withheld)";
+      } else if (by.empty()) {
         line += "at noise with the model as given";
       } else {
         line += "explained by";
         for (std::size_t i = 0; i < by.size(); ++i) line += (i ? ", " : " ") + by[i];
       }
-      line += " (held-out chi2/dof " + fmt("%.3g", r.gap_after.chi2_dof[u]) + ")";
+      if (std::isfinite(r.gap_after.chi2_dof[u])) line += " (held-out chi2/dof " + fmt("%.3g", r.gap_after.chi2_dof[u]) + ")";
     }
     const auto& m = r.stoch[u];
     if (m.gm_sigma > 0) line += "; drift: Gauss-Markov sigma " + fmt("%.3g", m.gm_sigma) + ", tau " + fmt("%.3g", m.gm_tau_s) + " s";
