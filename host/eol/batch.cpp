@@ -46,6 +46,7 @@ void solve_one(const BatchUnit& u, const StationConfig& st, const model::ModelSp
   const double cpu0 = thread_cpu_s();
   out.slot = u.slot;
   out.serial = u.serial;
+  out.log_path = u.log_path;
   try {
     UnitSolve us = solve_unit_log(u.log_path, st, spec, camp);
     out.estimate = std::move(us.estimate);
@@ -61,6 +62,7 @@ void solve_one(const BatchUnit& u, const StationConfig& st, const model::ModelSp
     const Verdict v = evaluate(st, params, none, extra, /*require_verification=*/false);
     out.pass = v.pass;
     out.reasons = v.reasons;
+    out.params = params;
     nlohmann::json cal;
     cal["serial"] = u.serial;
     cal["slot"] = u.slot;
@@ -177,6 +179,36 @@ void mark_outliers(BatchOutcome& b, const BatchOptions& opt) {
       if (d > opt.outlier_k * s.robust_sigma && d > 3.0 * std::sqrt(u.estimate.covariance(k, k))) u.outliers.push_back(names[i]);
     }
   }
+}
+
+std::string record_batch(records::RecordStore& store, const BatchOutcome& b, const StationConfig& st,
+                         const BatchProvenance& prov) {
+  store.ensure_schema();
+  // The provenance both record kinds share.
+  auto stamp = [&](auto& r) {
+    r.station = prov.station;
+    r.campaign = prov.campaign;
+    r.campaign_sha256 = prov.campaign_sha256;
+    r.software_version = IMUFORGE_VERSION;
+    r.started_utc = prov.started_utc;
+    r.finished_utc = prov.finished_utc;
+  };
+  records::BatchRecord br;
+  stamp(br);
+  br.units_passed = b.passed;
+  for (const auto& u : b.units) {
+    records::CalibrationRecord rec;
+    stamp(rec);
+    rec.serial = u.serial;
+    rec.fixture = u.slot;
+    rec.pass = u.pass;
+    rec.reasons = u.reasons;
+    rec.log_path = u.log_path;
+    rec.parameters = u.params;
+    const std::string id = store.insert(rec);
+    br.units.push_back({u.slot, u.serial, id, u.pass, u.reasons, u.outliers});
+  }
+  return store.insert_batch(br);
 }
 
 nlohmann::json batch_to_json(const BatchOutcome& b) {

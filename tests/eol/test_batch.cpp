@@ -11,6 +11,7 @@
 #include "host/eol/batch.h"
 #include "host/io/campaign_file.h"
 #include "host/io/log.h"
+#include "host/records/store.h"
 #include "host/sim/simulator.h"
 
 using namespace imuforge;
@@ -125,6 +126,21 @@ TEST(Batch, DeadNodeFailsAloneOutlierIsMarkedOthersPass) {
   EXPECT_NE(html.find("slot06 SN-105</b> passes but is far from its batch"), std::string::npos);
   EXPECT_EQ(html.find("<script"), std::string::npos);
   EXPECT_EQ(eol::batch_to_json(r)["units_passed"], 7);
+  // Records: one per unit (the dead one too, with its reason) and the batch naming them.
+  auto store = records::open_store((b.dir / "records.sqlite").string());
+  const std::string bid = eol::record_batch(*store, r, b.st, {"batch-test", "eol", std::string(64, '0'), "t0", "t1"});
+  const records::BatchRecord br = store->get_batch(bid);
+  EXPECT_EQ(br.units_passed, 7);
+  ASSERT_EQ(br.units.size(), 8u);
+  const records::CalibrationRecord dead = store->get(br.units[3].calibration_id);
+  EXPECT_EQ(dead.serial, "SN-103");
+  EXPECT_FALSE(dead.pass);
+  EXPECT_EQ(dead.reasons, r.units[3].reasons);
+  EXPECT_TRUE(dead.parameters.empty());
+  const records::CalibrationRecord odd = store->get(br.units[5].calibration_id);
+  EXPECT_TRUE(odd.pass);
+  EXPECT_EQ(odd.parameters.size(), b.spec.parameters().size());
+  EXPECT_EQ(br.units[5].outliers, r.units[5].outliers);
   EXPECT_THROW(eol::solve_batch({}, b.st, b.spec, b.camp), std::invalid_argument);
   EXPECT_THROW(eol::solve_batch({b.units[0], b.units[0]}, b.st, b.spec, b.camp), std::invalid_argument);
 }
