@@ -48,7 +48,19 @@ void solve_one(const BatchUnit& u, const StationConfig& st, const model::ModelSp
   out.serial = u.serial;
   out.log_path = u.log_path;
   try {
-    UnitSolve us = solve_unit_log(u.log_path, st, spec, camp);
+    // The unit's nest: its nominal mount and lever arm, and its own mount tolerance.
+    const StationSlot* sl = st.slot(u.slot);
+    physics::Campaign c = camp;
+    StationConfig s = st;
+    if (sl && sl->has_geometry) {
+      c.mount_rotation_deg = sl->mount_rotation_deg;
+      c.lever_arm_m = sl->lever_arm_m;
+    }
+    if (sl && sl->mount_sigma_deg[0] >= 0) {
+      if (!s.fixture_tolerance.is_object()) s.fixture_tolerance = nlohmann::json::object();
+      s.fixture_tolerance["mount_sigma_deg"] = sl->mount_sigma_deg;
+    }
+    UnitSolve us = solve_unit_log(u.log_path, s, spec, c);
     out.estimate = std::move(us.estimate);
     out.sigma_noise = std::move(us.sigma_noise);
     out.solved = true;

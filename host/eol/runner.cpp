@@ -143,6 +143,10 @@ RunResult Runner::run() {
     throw std::invalid_argument(std::string("campaign: ") + e.what());
   }
   StationConfig st = load_station(opt_.station_path);
+  if (st.slots.size() > 1)
+    throw std::invalid_argument("station " + opt_.station_path + " lists " + std::to_string(st.slots.size()) +
+                                " slots: imuforge run drives one unit per campaign (multi-slot runs are not built yet); "
+                                "solve the units' logs together with imuforge batch (docs/eol.md \"Batches\")");
   if (st.model_path.empty()) throw std::invalid_argument("station " + opt_.station_path + ": \"model\" (solver model file) is required");
   std::string model_path = fs::path(st.model_path).is_absolute() ? st.model_path : (fs::path(st.dir) / st.model_path).string();
   model::ModelSpec spec;

@@ -144,3 +144,58 @@ TEST(Batch, DeadNodeFailsAloneOutlierIsMarkedOthersPass) {
   EXPECT_THROW(eol::solve_batch({}, b.st, b.spec, b.camp), std::invalid_argument);
   EXPECT_THROW(eol::solve_batch({b.units[0], b.units[0]}, b.st, b.spec, b.camp), std::invalid_argument);
 }
+
+// The station's slots (issue 14 item 1): parsed and checked before anything runs — names and node ids
+// unique, the bus budget of every bus under its limit (with what would fit); a slot's own mount tolerance
+// is the one its unit's σ carries.
+TEST(Batch, StationSlotsAreCheckedAndCarryTheirNest) {
+  json st = {{"name", "s"}, {"can", {{"bus", "socketcan:can0"}, {"stream_rate_hz", 200}}}};
+  json slots = json::array();
+  for (int k = 0; k < 8; ++k) slots.push_back({{"node_id", k + 1}});
+  st["slots"] = slots;
+  const eol::StationConfig ok = eol::station_from_json(st, ".");
+  ASSERT_EQ(ok.slots.size(), 8u);
+  EXPECT_EQ(ok.slots[7].name, "slot08");
+  EXPECT_EQ(ok.slots[7].bus, "socketcan:can0");
+  auto refused = [](const json& j) {
+    try {
+      eol::station_from_json(j, ".");
+    } catch (const eol::StationError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  json over = st;  // 16 units at 200 Hz on one classic bus: 129.6 %
+  for (int k = 8; k < 16; ++k) over["slots"].push_back({{"node_id", k + 1}});
+  const std::string m = refused(over);
+  EXPECT_NE(m.find("bus socketcan:can0: 16 units at 200 Hz take 129.6 %"), std::string::npos) << m;
+  EXPECT_NE(m.find("or 2 buses"), std::string::npos) << m;
+  EXPECT_NE(m.find("or CAN FD"), std::string::npos) << m;
+  for (int k = 8; k < 16; ++k) over["slots"][static_cast<std::size_t>(k)]["bus"] = "socketcan:can1";
+  EXPECT_EQ(refused(over), "") << "two buses of 8 fit";
+  json fd = st;
+  fd["slots"] = over["slots"];
+  for (auto& sl : fd["slots"]) sl.erase("bus");
+  fd["can"]["fd"] = true;
+  EXPECT_EQ(refused(fd), "") << "CAN FD carries 16";
+  json dup = st;
+  dup["slots"][1]["node_id"] = 1;
+  EXPECT_NE(refused(dup).find("node 1 is used twice on socketcan:can0"), std::string::npos);
+  json bad = st;
+  bad["slots"][0]["mount_sigma"] = 1;
+  EXPECT_NE(refused(bad).find("slots[0].mount_sigma: unknown key"), std::string::npos);
+
+  // Two units of the same log: slot02's nest is stated 10× looser; its misalignment σ follows.
+  Batch b;
+  json stj = {{"name", "batch-test"},
+              {"fixture_tolerance", {{"axes", {{"tilt_sigma_deg", 0.002}, {"zero_sigma_deg", 0.003}}}, {"mount_sigma_deg", 0.01}}},
+              {"slots", {{{"name", "slot01"}, {"node_id", 1}}, {{"name", "slot02"}, {"node_id", 2}, {"mount_sigma_deg", 0.1}}}}};
+  const eol::StationConfig s2 = eol::station_from_json(stj, b.dir.string());
+  const eol::BatchOutcome r =
+      eol::solve_batch({{"slot01", "A", b.units[0].log_path}, {"slot02", "B", b.units[0].log_path}}, s2, b.spec, b.camp);
+  const int k = r.units[0].estimate.index_of("gyro.misalign.xy");
+  ASSERT_GE(k, 0);
+  const double s01 = r.units[0].estimate.sigma()[k], s02 = r.units[1].estimate.sigma()[k];
+  EXPECT_GT(s02, 5 * s01);
+  EXPECT_EQ(r.units[0].estimate.value, r.units[1].estimate.value);
+}
