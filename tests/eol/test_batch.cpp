@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sys/wait.h>
 
 #include "host/eol/batch.h"
 #include "host/io/campaign_file.h"
@@ -198,4 +199,44 @@ TEST(Batch, StationSlotsAreCheckedAndCarryTheirNest) {
   const double s01 = r.units[0].estimate.sigma()[k], s02 = r.units[1].estimate.sigma()[k];
   EXPECT_GT(s02, 5 * s01);
   EXPECT_EQ(r.units[0].estimate.value, r.units[1].estimate.value);
+}
+
+namespace {
+int run_cmd(const std::string& args, std::string& out, const fs::path& dir) {
+  const fs::path log = dir / "cmd.txt";
+  const int rc = std::system((std::string(IMUFORGE_BIN) + " " + args + " > " + log.string() + " 2>&1").c_str());
+  std::ifstream f(log);
+  out.assign(std::istreambuf_iterator<char>(f), {});
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+}  // namespace
+
+// The commands a station engineer types: `imuforge batch` (exit 1 when a unit fails, every output
+// written, records) and `imuforge can budget` (exit 1 above the limit, saying what fits).
+TEST(Batch, CommandLine) {
+  Batch b;
+  json stj = {{"name", "cli-batch"}, {"model", IMUFORGE_SOURCE_DIR "/docs/examples/model-basic.json"},
+              {"fixture_tolerance", {{"mount_sigma_deg", 0.01}}}};
+  std::ofstream(b.dir / "station.json") << stj.dump();
+  json c = io::campaign_to_json(b.camp);
+  std::ofstream(b.dir / "campaign.json") << c.dump();
+  std::string args = "batch --station " + (b.dir / "station.json").string() + " --campaign " + (b.dir / "campaign.json").string() +
+                     " --out " + (b.dir / "out").string() + " --db " + (b.dir / "rec.sqlite").string() + " --threads 2";
+  for (int k = 0; k < 4; ++k) args += " --unit " + b.units[static_cast<std::size_t>(k)].slot + ":" + b.units[static_cast<std::size_t>(k)].serial + ":" + b.units[static_cast<std::size_t>(k)].log_path;
+  std::string out;
+  EXPECT_EQ(run_cmd(args, out, b.dir), 1) << out;  // slot04 has no log
+  EXPECT_NE(out.find("batch: 3 of 4 units pass"), std::string::npos) << out;
+  EXPECT_NE(out.find("slot04   SN-103       FAIL  no calibration"), std::string::npos) << out;
+  EXPECT_NE(out.find("batch record"), std::string::npos) << out;
+  EXPECT_TRUE(fs::exists(b.dir / "out" / "slot01" / "cal.json"));
+  EXPECT_FALSE(fs::exists(b.dir / "out" / "slot04"));
+  EXPECT_TRUE(fs::exists(b.dir / "out" / "batch-report.html"));
+  std::ifstream bj(b.dir / "out" / "batch.json");
+  EXPECT_EQ(json::parse(bj)["units_passed"], 3);
+  EXPECT_EQ(run_cmd("batch --station " + (b.dir / "station.json").string() + " --campaign x.json --out o --unit nocolons", out, b.dir), 2)
+      << out;
+  EXPECT_EQ(run_cmd("can budget --units 16 --rate 200", out, b.dir), 1) << out;
+  EXPECT_NE(out.find("or 2 buses at 200 Hz (8 units per bus)"), std::string::npos) << out;
+  EXPECT_EQ(run_cmd("can budget --units 16 --rate 200 --fd", out, b.dir), 0) << out;
+  EXPECT_EQ(run_cmd("can budget --units 16 --rate 200 --buses 2", out, b.dir), 0) << out;
 }
