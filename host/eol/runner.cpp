@@ -674,9 +674,18 @@ RunResult Runner::run() {
       solve_note = "batch fixture mode (host/solver)";
     } else {
       solve_note = "srif (batch names differ: per-plateau model?)";
+      // The recursive estimate's σ know nothing of the fixture: a stated tolerance not carried is a failure.
+      if (!st.fixture_tolerance.is_null()) {
+        fixture_section = {{"stated", true}, {"error", "not propagated: the batch solve's parameters differ"}};
+        consider_error = "fixture tolerance: not propagated (the batch solve's parameters differ from the recursive estimate's)";
+      }
     }
   } catch (const solver::SolverError& e) {
     solve_note = std::string("srif (batch solve refused: ") + e.what() + ")";
+    if (!st.fixture_tolerance.is_null()) {
+      fixture_section = {{"stated", true}, {"error", std::string("not propagated: ") + e.what()}};
+      consider_error = std::string("fixture tolerance: not propagated (batch solve refused: ") + e.what() + ")";
+    }
   }
   res.estimate = est;
   Eigen::VectorXd sig = est.sigma();
