@@ -151,8 +151,10 @@ Detection detect_poses(const Recording& rec, const DetectOptions& o) {
     }
     std::size_t j = i;
     while (j < n && still[j]) ++j;
-    const std::size_t a = i > 0 ? std::min(j, i + settle) : i;
-    const std::size_t b = j < n ? (j - a > lead ? j - lead : a) : j;
+    // The window already keeps h samples off the motion on each side: the margins count from the motion.
+    const std::size_t extra_settle = settle > h ? settle - h : 0, extra_lead = lead > h ? lead - h : 0;
+    const std::size_t a = i > 0 ? std::min(j, i + extra_settle) : i;
+    const std::size_t b = j < n ? (j - a > extra_lead ? j - extra_lead : a) : j;
     i = j;
     if (b <= a) continue;
     // Block directions.

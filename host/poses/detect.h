@@ -11,8 +11,9 @@
 //     constant rate has no scatter) below max(k_gyro × floor, hand_rate_rad_s). The bias is the median
 //     window mean over the accelerometer-still samples. The rate floor keeps hand-held poses (tremor of
 //     a few hundredths of rad/s, far above a MEMS gyro's noise, but too little to tilt the pose) in.
-//  3. Runs of still samples lose settle_s after the motion before them (the hand lets go, the mount
-//     rings) and lead_s before the motion after them.
+//  3. Runs of still samples keep settle_s away from the motion before them (the hand lets go, the mount
+//     rings) and lead_s from the motion after them (counted from the motion: the window's half-width
+//     is part of the margin).
 //  4. Attitude: the run is cut into blocks (block_s); where the blocks' gravity directions spread over
 //     more than split_deg the run is split at its largest block-to-block step, recursively (a pose
 //     nudged without enough motion to break stillness, or a slow drift). Leading and trailing blocks

@@ -4,11 +4,13 @@
 #include <stdexcept>
 
 #include "host/model/measure.h"
-#include "host/sim/earth.h"
+#include "host/physics/earth.h"
 #include "host/sim/noise.h"
-#include "host/sim/timeline.h"
+#include "host/physics/timeline.h"
 
 namespace imuforge::sim {
+
+using namespace physics;  // the simulator samples the physics part throughout
 
 using model::Effect;
 using model::Sensor;
@@ -33,8 +35,8 @@ double jnum(const json& o, const char* k, const std::string& where) {
 
 SimExtras parse_extras(const Campaign& c, bool use_errors) {
   SimExtras x;
-  const json& s = c.simulation;
-  if (s.is_null()) return x;
+  if (c.simulation_json.empty()) return x;
+  const json s = json::parse(c.simulation_json);
   if (!s.is_object()) throw std::invalid_argument("simulation: expected an object");
   for (auto it = s.begin(); it != s.end(); ++it) {
     const std::string& k = it.key();

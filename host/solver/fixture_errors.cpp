@@ -1,3 +1,4 @@
+#include "host/io/campaign_file.h"
 #include "host/solver/fixture_errors.h"
 
 #include <algorithm>
@@ -7,9 +8,9 @@
 #include <optional>
 
 #include "host/model/measure.h"
-#include "host/sim/earth.h"
-#include "host/sim/table.h"
-#include "host/sim/timeline.h"
+#include "host/physics/earth.h"
+#include "host/physics/table.h"
+#include "host/physics/timeline.h"
 
 namespace imuforge::solver {
 
@@ -23,8 +24,8 @@ struct Nuisance {
   int what;   // 0 tilt_a, 1 tilt_b, 2 zero; mount: component 0..2
 };
 
-sim::TableGeometry apply(const sim::TableGeometry& nominal, const std::vector<Nuisance>& nu, const Eigen::VectorXd& eta) {
-  sim::TableGeometry g = nominal;
+physics::TableGeometry apply(const physics::TableGeometry& nominal, const std::vector<Nuisance>& nu, const Eigen::VectorXd& eta) {
+  physics::TableGeometry g = nominal;
   for (size_t k = 0; k < nu.size(); ++k) {
     const Nuisance& n = nu[k];
     const double v = eta[static_cast<long>(k)];
@@ -40,7 +41,7 @@ sim::TableGeometry apply(const sim::TableGeometry& nominal, const std::vector<Nu
 
 class FixtureErrorsProblem : public NonlinearProblem {
  public:
-  FixtureErrorsProblem(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& c, std::vector<Nuisance> nu,
+  FixtureErrorsProblem(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& c, std::vector<Nuisance> nu,
                        const Sigma6& sigma)
       : log_(log), spec_(spec), nu_(std::move(nu)), sigma_(sigma) {
     ids_all_ = spec.parameters();
@@ -51,12 +52,12 @@ class FixtureErrorsProblem : public NonlinearProblem {
     }
     for (const auto& e : spec.effects)
       if (e.per_plateau) throw SolverError("fixture+errors mode: per-plateau parameters are not supported; use polynomials");
-    nominal_ = sim::geometry_from_campaign(c).nominal();
-    sim::Site site;
+    nominal_ = physics::geometry_from_campaign(c).nominal();
+    physics::Site site;
     site.latitude_deg = c.latitude_deg;
     site.height_m = c.height_m;
-    g_ned_ = sim::gravity_ned(site);
-    wie_ned_ = sim::earth_rate_ned(site);
+    g_ned_ = physics::gravity_ned(site);
+    wie_ned_ = physics::earth_rate_ned(site);
     for (model::ParamId id : ids_all_) has_temp_rate_ = has_temp_rate_ || model::param_info(id).effect == model::Effect::kTempRate;
     dTdt_window_s_ = dTdt_window_of(spec);
     lsb_[0] = log.meta().accel_lsb_mps2;
@@ -79,7 +80,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
                                         model::compile(ps, Sensor::kGyro, spec_.T_ref_C)};
     const Eigen::VectorXd eta = x.tail(nn);
     constexpr double h = 1e-7;  // rad: central differences on the kinematics
-    std::vector<sim::PreparedTable> tables;
+    std::vector<physics::PreparedTable> tables;
     tables.emplace_back(apply(nominal_, nu_, eta));
     for (int k = 0; k < nn; ++k)
       for (double sgn : {1.0, -1.0}) {
@@ -89,9 +90,9 @@ class FixtureErrorsProblem : public NonlinearProblem {
       }
     log_.rewind();
     model::HysteresisTracker hyst;
-    sim::TableState last{};
+    physics::TableState last{};
     bool have_last = false;
-    std::vector<sim::ImuKinematics> kin(tables.size());
+    std::vector<physics::ImuKinematics> kin(tables.size());
     Eigen::MatrixXd info = Eigen::MatrixXd::Zero(n, n);
     Eigen::VectorXd jrow(n);
     std::array<Eigen::Matrix<double, 3, Eigen::Dynamic>, 2> J;
@@ -105,7 +106,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
     auto process = [&](const io::LogRow& row, double Tdot_C_s) {
       const double d = hyst.update(row.temp_C);
       if (row.segment < 0 || !row.has_ref) return;
-      sim::TableState st{};
+      physics::TableState st{};
       bool ok = true;
       for (int a = 0; a < nominal_.n_axes; ++a) {
         st.angle_rad[static_cast<size_t>(a)] = row.table_angle_rad[a];
@@ -114,12 +115,12 @@ class FixtureErrorsProblem : public NonlinearProblem {
       }
       if (!ok) return;
       if (!have_last || st.angle_rad != last.angle_rad || st.rate_rad_s != last.rate_rad_s) {
-        for (size_t t = 0; t < tables.size(); ++t) kin[t] = sim::table_kinematics(tables[t], st, g_ned_, wie_ned_);
+        for (size_t t = 0; t < tables.size(); ++t) kin[t] = physics::table_kinematics(tables[t], st, g_ned_, wie_ned_);
         last = st;
         have_last = true;
       }
       const double T = std::isfinite(row.temp_C) ? row.temp_C : spec_.T_ref_C;
-      auto input = [&](const sim::ImuKinematics& k) {
+      auto input = [&](const physics::ImuKinematics& k) {
         model::MeasureInput in;
         in.f = k.f_mps2;
         in.w = k.w_rad_s;
@@ -175,7 +176,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
   std::vector<model::ParamId> ids_all_;
   std::array<std::vector<model::ParamId>, 2> ids_;
   std::array<std::vector<int>, 2> pos_;
-  sim::TableGeometry nominal_;
+  physics::TableGeometry nominal_;
   Eigen::Vector3d g_ned_, wie_ned_;
   double lsb_[2];
   bool has_temp_rate_ = false;
@@ -307,7 +308,7 @@ GaugeDecision choose_gauge(const Eigen::MatrixXd& info, const std::vector<std::s
 
 }  // namespace
 
-FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& c,
+FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& c,
                                          const FixtureErrorsOptions& opt) {
   // Pass 0: the plain fixture solution (initial model values) and the within-dwell noise.
   FixtureAccumulator acc(spec, log.meta());
@@ -386,9 +387,9 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
 }
 
 FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const std::string& campaign_path) {
-  sim::Campaign c;
+  physics::Campaign c;
   try {
-    c = sim::load_campaign(campaign_path);
+    c = io::load_campaign(campaign_path);
   } catch (const std::exception& e) {
     throw SolverError("campaign '" + campaign_path + "': " + e.what());
   }

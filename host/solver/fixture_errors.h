@@ -1,7 +1,7 @@
 // Fixture+errors mode: the rate table's axis tilts and encoder zero offsets (and, on request, the IMU
 // mount rotation) are estimated as nuisance parameters together with the model, so an imprecise fixture
 // still calibrates. The reference is recomputed from the LOGGED (reported) table angles and rates with
-// sim::table_kinematics() — the simulator's own kinematics — for the current nuisance values.
+// physics::table_kinematics() — the simulator's own kinematics — for the current nuisance values.
 //
 // The problem is nonlinear in the nuisance parameters: Levenberg-Marquardt, each iteration one streaming
 // pass over the log (LogReader::rewind), memory independent of the log length. Per sample: one
@@ -27,7 +27,7 @@
 
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 #include "host/solver/fixture.h"
 
 namespace imuforge::solver {
@@ -59,7 +59,7 @@ struct FixtureErrorsResult {
   int iterations = 0;
 };
 
-FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& campaign,
+FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& campaign,
                                          const FixtureErrorsOptions& opt = {});
 // Convenience for the command: loads the campaign; "fixture_nuisance": {"mount": false} in the model's
 // extra section keeps the mount rotation out of the nuisance set (it is in by default).

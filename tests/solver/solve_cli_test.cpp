@@ -11,9 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "host/io/campaign_file.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 #include "host/sim/simulator.h"
 
 namespace fs = std::filesystem;
@@ -59,7 +60,7 @@ class SolveCli : public ::testing::Test {
     if (thin) c["phases"][0]["steps"] = json::array({{{"use", "tumble24"}}, {{"use", "outer_rates"}}});
     campaign_path = dir_ / (thin ? "thin.json" : "campaign.json");
     std::ofstream(campaign_path) << c.dump(1);
-    const sim::Campaign camp = sim::campaign_from_json(c);
+    const physics::Campaign camp = io::campaign_from_json(c);
     json s = read_json(IMUFORGE_SOURCE_DIR "/docs/examples/sensor-matched.json");
     for (const char* k : {"accel.bias_temp", "accel.scale_temp", "gyro.bias_temp", "gyro.scale_temp"}) s["effects"].erase(k);
     const model::SensorModel sensor = model::sensor_model_from_json(s);

@@ -9,7 +9,7 @@
 
 #include <Eigen/Core>
 
-namespace imuforge::sim {
+namespace imuforge::physics {
 
 namespace wgs84 {
 constexpr double kA_m = 6378137.0;                    // semi-major axis
@@ -35,4 +35,4 @@ Eigen::Vector3d earth_rate_ned(const Site& s);
 // Gravity vector in NED: (0, 0, +g).
 Eigen::Vector3d gravity_ned(const Site& s);
 
-}  // namespace imuforge::sim
+}  // namespace imuforge::physics

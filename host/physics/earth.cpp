@@ -1,8 +1,8 @@
-#include "host/sim/earth.h"
+#include "host/physics/earth.h"
 
 #include <cmath>
 
-namespace imuforge::sim {
+namespace imuforge::physics {
 
 double normal_gravity_mps2(const Site& s) {
   using namespace wgs84;
@@ -26,4 +26,4 @@ Eigen::Vector3d earth_rate_ned(const Site& s) {
 
 Eigen::Vector3d gravity_ned(const Site& s) { return Eigen::Vector3d(0.0, 0.0, normal_gravity_mps2(s)); }
 
-}  // namespace imuforge::sim
+}  // namespace imuforge::physics
