@@ -106,7 +106,8 @@ int run_diagnose(int argc, char** argv) {
     std::unique_ptr<diagnosis::ReferenceFreeSource> rf;
     if (mode == "reference-free" || (mode == "auto" && !any_ref)) {
       rf = std::make_unique<diagnosis::ReferenceFreeSource>(*src, real.meta().gravity_mps2, poses::DetectOptions{},
-                                                            real.meta().accel_lsb_mps2, real.meta().gyro_lsb_rad_s);
+                                                            real.meta().accel_lsb_mps2, real.meta().gyro_lsb_rad_s,
+                                                            real.meta().sample_rate_hz);
       src = rf.get();
       if (explain_poses) std::printf("%s", poses::explain_table(rf->detection()).c_str());
       std::printf("reference-free: %d static poses (%.0f s); gravity-magnitude fit with %d parameters: RMS over poses %.4g -> %.4g m/s^2\n",

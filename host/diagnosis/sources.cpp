@@ -51,7 +51,7 @@ bool PairedSource::next(Sample& s) {
 }
 
 ReferenceFreeSource::ReferenceFreeSource(SampleSource& inner, double g, const poses::DetectOptions& detect,
-                                         double accel_lsb, double gyro_lsb)
+                                         double accel_lsb, double gyro_lsb, double rate_hz)
     : inner_(inner) {
   info_.gravity_mps2 = std::isfinite(g) && g > 0 ? g : 9.80665;
   // The shared reference-free front end (host/poses): the whole recording in memory, the one static-pose
@@ -67,7 +67,7 @@ ReferenceFreeSource::ReferenceFreeSource(SampleSource& inner, double g, const po
     rec.y.push_back({s.y[0], s.y[1], s.y[2], s.y[3], s.y[4], s.y[5]});
   }
   if (rec.t_s.size() < 3) throw DiagnosisError("reference-free: empty log");
-  rec.rate_hz = static_cast<double>(rec.t_s.size() - 1) / (rec.t_s.back() - rec.t_s.front());
+  rec.rate_hz = rate_hz > 0 ? rate_hz : static_cast<double>(rec.t_s.size() - 1) / (rec.t_s.back() - rec.t_s.front());
   detection_ = poses::detect_poses(rec, detect);
   const auto& ps = detection_.poses;
   info_.poses = static_cast<int>(ps.size());

@@ -54,9 +54,10 @@ struct ReferenceFreeInfo {
 };
 class ReferenceFreeSource : public SampleSource {
  public:
-  // lsb: one count of each triad in SI (0 = unknown), the detector's floor for quantised sensors.
+  // lsb: one count of each triad in SI (0 = unknown), the detector's floor for quantised sensors;
+  // rate_hz: the log's nominal rate (0 = from the timestamps), as `imuforge solve` takes it.
   ReferenceFreeSource(SampleSource& inner, double gravity_mps2, const poses::DetectOptions& detect = {},
-                      double accel_lsb = 0, double gyro_lsb = 0);
+                      double accel_lsb = 0, double gyro_lsb = 0, double rate_hz = 0);
   void rewind() override;
   bool next(Sample& s) override;
   const ReferenceFreeInfo& info() const { return info_; }
