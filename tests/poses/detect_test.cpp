@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "host/diagnosis/sources.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/poses/detect.h"
@@ -231,4 +232,53 @@ TEST(LogWordWidth, DeclaredBitsRoundTripAndBoundTheCountsByLine) {
       EXPECT_NE(std::string(e.what()).find(":7:"), std::string::npos) << e.what();
     }
   }
+}
+
+// One log, one set of poses: `imuforge solve` (poses::read_recording) and `imuforge diagnose` (its
+// ReferenceFreeSource over a LogSource) go through the same front end and must agree pose for pose.
+TEST(OneFrontEnd, SolveAndDiagnoseFindTheSamePoses) {
+  poses::Recording rec;
+  const handtest::Sensor s = unit();
+  handtest::generate(handtest::session(14, 3, 8, 51, true), s, 51, rec);
+  const std::string p = std::string(IMUFORGE_BINARY_DIR) + "/poses_one_front_end.bin";
+  {
+    io::LogMeta m;
+    m.sample_rate_hz = 100;
+    m.accel_lsb_mps2 = s.lsb_a;
+    m.gyro_lsb_rad_s = s.lsb_g;
+    m.accel_bits = m.gyro_bits = s.bits;
+    io::LogWriter w(p, m);
+    for (std::size_t i = 0; i < rec.y.size(); ++i) {
+      io::LogRow r;
+      r.t_s = rec.t_s[i];
+      for (int c = 0; c < 6; ++c) r.raw[c] = static_cast<std::int32_t>(std::lround(rec.y[i][c] / (c < 3 ? s.lsb_a : s.lsb_g)));
+      w.write(r);
+    }
+    w.close();
+  }
+  io::LogReader lr(p);
+  const poses::Detection solve_side = poses::detect_poses(poses::read_recording(lr));
+  diagnosis::LogSource src(p);
+  diagnosis::ReferenceFreeSource rf(src, 9.80665, {}, s.lsb_a, s.lsb_g, 100);
+  const poses::Detection& diag_side = rf.detection();
+  EXPECT_EQ(solve_side.poses.size(), 14u);
+  ASSERT_EQ(diag_side.poses.size(), solve_side.poses.size());
+  for (std::size_t k = 0; k < solve_side.poses.size(); ++k) {
+    EXPECT_EQ(diag_side.poses[k].begin, solve_side.poses[k].begin) << k;
+    EXPECT_EQ(diag_side.poses[k].end, solve_side.poses[k].end) << k;
+  }
+  // Every sample of a pose carries that pose's pseudo-reference; the others none.
+  diagnosis::Sample smp;
+  rf.rewind();
+  std::size_t i = 0, in_pose = 0;
+  while (rf.next(smp)) {
+    in_pose += smp.has_ref;
+    ++i;
+  }
+  std::size_t expect = 0;
+  for (const auto& q : solve_side.poses) expect += q.samples;
+  EXPECT_EQ(i, rec.y.size());
+  EXPECT_EQ(in_pose, expect);
+  EXPECT_EQ(rf.info().poses, 14);
+  EXPECT_EQ(rf.info().calibrated_params, 9);
 }
