@@ -6,9 +6,12 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstdlib>
+#include <sys/wait.h>
 #include <filesystem>
 
 #include "host/diagnosis/sources.h"
+#include "host/io/import.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/poses/detect.h"
@@ -281,4 +284,95 @@ TEST(OneFrontEnd, SolveAndDiagnoseFindTheSamePoses) {
   EXPECT_EQ(in_pose, expect);
   EXPECT_EQ(rf.info().poses, 14);
   EXPECT_EQ(rf.info().calibrated_params, 9);
+}
+
+namespace {
+// Writes a hand-placed recording as a float export (t_s, m/s², rad/s), as a logger would.
+std::string write_float_csv(const poses::Recording& rec, const std::string& name) {
+  const std::string p = std::string(IMUFORGE_BINARY_DIR) + "/" + name;
+  std::FILE* f = std::fopen(p.c_str(), "w");
+  std::fprintf(f, "# exported floats\nt_s,ax,ay,az,gx,gy,gz\n");
+  for (std::size_t i = 0; i < rec.y.size(); ++i)
+    std::fprintf(f, "%.4f,%.6f,%.6f,%.6f,%.7f,%.7f,%.7f\n", rec.t_s[i] + 12.5, rec.y[i][0], rec.y[i][1], rec.y[i][2],
+                 rec.y[i][3], rec.y[i][4], rec.y[i][5]);
+  std::fclose(f);
+  return p;
+}
+int run_cli(const std::string& args, const std::string& out) {
+  const std::string cmd = std::string(IMUFORGE_BIN) + " " + args + " > " + out + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+std::string slurp(const std::string& p) {
+  std::FILE* f = std::fopen(p.c_str(), "r");
+  std::string s;
+  if (!f) return s;
+  char buf[4096];
+  std::size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) s.append(buf, n);
+  std::fclose(f);
+  return s;
+}
+}  // namespace
+
+// A float export with 8+ rad/s peaks: mapped to 32-bit counts nothing clips and every pose is found;
+// forced into int16 at a coarse LSB the import refuses the first value beyond the word, by line.
+TEST(FloatExport, ImportsToA32BitWordWithoutClippingAndRefusesAValueBeyondTheWord) {
+  poses::Recording rec;
+  handtest::generate(handtest::session(14, 4, 8, 61, false, 170, 0.45), unit(), 61, rec);
+  const std::string csv = write_float_csv(rec, "poses_float.csv");
+  const std::string bin = std::string(IMUFORGE_BINARY_DIR) + "/poses_float.bin";
+  io::ImportOptions o;
+  o.format = "si-csv";
+  o.in = csv;
+  io::import_recording(o, bin);
+  io::LogReader r(bin);
+  EXPECT_EQ(r.meta().gyro_bits, 32);
+  const poses::Recording back = poses::read_recording(r);
+  EXPECT_EQ(back.clipped_samples, 0u);
+  EXPECT_NEAR(back.t_s.front(), 0.0, 1e-12);
+  EXPECT_EQ(poses::detect_poses(back).poses.size(), 14u);
+  o.bits = 16;
+  o.gyro_lsb_rad_s = 1e-4;  // ±3.3 rad/s in int16: the fast moves do not fit
+  try {
+    io::import_recording(o, bin);
+    FAIL() << "a rate beyond the 16-bit word was imported";
+  } catch (const io::LogError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("poses_float.csv:"), std::string::npos) << m;
+    EXPECT_NE(m.find("beyond the 16-bit word"), std::string::npos) << m;
+  }
+}
+
+// The command line: import preview, solve --explain-poses, and solve --log A --log B (repeatability
+// in cal.json and on the terminal).
+TEST(FloatExport, CommandLinePreviewExplainAndTwoRecordings) {
+  poses::Recording a, b;
+  handtest::Sensor s = unit();
+  handtest::generate(handtest::session(16, 4, 8, 71), s, 71, a);
+  s.ba += Eigen::Vector3d(0, 0.02, 0);
+  handtest::generate(handtest::session(16, 4, 8, 72), s, 72, b);
+  const std::string dir = IMUFORGE_BINARY_DIR;
+  const std::string la = dir + "/poses_cli_a.bin", lb = dir + "/poses_cli_b.bin", out = dir + "/poses_cli.txt";
+  ASSERT_EQ(run_cli("import --format si-csv --in " + write_float_csv(a, "poses_cli_a.csv") + " --out " + la, out), 0)
+      << slurp(out);
+  EXPECT_NE(slurp(out).find("preview: 16 static poses"), std::string::npos) << slurp(out);
+  ASSERT_EQ(run_cli("import --format si-csv --in " + write_float_csv(b, "poses_cli_b.csv") + " --out " + lb, out), 0);
+  const std::string model = std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/model-basic.json";
+  const std::string cal = dir + "/poses_cli_cal.json";
+  ASSERT_EQ(run_cli("solve --mode reference-free --explain-poses --log " + la + " --model " + model + " --out " + cal, out), 0)
+      << slurp(out);
+  const std::string one = slurp(out);
+  EXPECT_NE(one.find("start_s"), std::string::npos);
+  EXPECT_NE(one.find("moving or settling"), std::string::npos);
+  ASSERT_EQ(run_cli("solve --mode reference-free --log " + la + " --log " + lb + " --model " + model + " --out " + cal, out), 0)
+      << slurp(out);
+  const std::string two = slurp(out);
+  EXPECT_NE(two.find("repeatability over 2 recordings"), std::string::npos) << two;
+  EXPECT_NE(two.find("warning: accel.bias.y"), std::string::npos) << two;
+  const auto j = nlohmann::json::parse(slurp(cal));
+  ASSERT_TRUE(j.contains("repeatability")) << j.dump(1).substr(0, 500);
+  EXPECT_EQ(j["repeatability"]["poses"], nlohmann::json({16, 16}));
+  EXPECT_EQ(j["reference_free"]["static_poses"], 32);
+  EXPECT_EQ(run_cli("solve --mode fixture --log " + la + " --log " + lb + " --model " + model + " --out " + cal, out), 2);
 }
