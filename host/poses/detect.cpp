@@ -114,7 +114,9 @@ Detection detect_poses(const Recording& rec, const DetectOptions& o) {
   for (std::size_t i = 0; i < n; ++i) {
     double r2 = 0;
     for (int c = 0; c < 3; ++c) r2 += sd[c][i] * sd[c][i] / (floor[c] * floor[c]);
-    acc_still[i] = std::sqrt(r2 / 3) < o.k_accel;
+    double s2 = 0;
+    for (int c = 0; c < 3; ++c) s2 += sd[c][i] * sd[c][i];
+    acc_still[i] = std::sqrt(r2 / 3) < o.k_accel || std::sqrt(s2) < o.hand_accel_mps2;
   }
   const std::size_t stride = std::max<std::size_t>(1, h / 2);
   for (int c = 0; c < 3; ++c) {
@@ -209,15 +211,8 @@ Detection detect_poses(const Recording& rec, const DetectOptions& o) {
       }
       bool clipped = false;
       for (std::size_t k = p; k < q && !rec.accel_clipped.empty(); ++k) clipped = clipped || rec.accel_clipped[k];
-      if (clipped) {
-        items.push_back({p, q, "rejected: accelerometer clipped at full scale"});
-      } else if (q - p < min_len) {
-        std::snprintf(buf, sizeof buf, "rejected: shorter than min dwell (%.2f s < %.2f s)",
-                      static_cast<double>(q - p) / fs, o.min_dwell_s);
-        items.push_back({p, q, note.empty() ? std::string(buf) : note + "; " + buf});
-      } else {
-        pieces.push_back({p, q, run, note});
-      }
+      if (clipped) items.push_back({p, q, "rejected: accelerometer clipped at full scale"});
+      else pieces.push_back({p, q, run, note});  // the dwell is judged after merging (a pose broken by blips)
       if (k1 < j1) {
         std::snprintf(buf, sizeof buf, "settling: attitude up to %.2f deg from the pose's", tail);
         items.push_back({blk(k1).first, b, buf});
@@ -226,12 +221,19 @@ Detection detect_poses(const Recording& rec, const DetectOptions& o) {
     ++run;
   }
 
-  // 6. Merge bumped poses.
-  std::vector<int> piece_run;
-  for (const Piece& pc : pieces) {
+  // 6. Merge bumped poses: pieces of different runs, close in time and attitude, form one group; the
+  // minimum dwell applies to the group (a pose broken into short pieces by vibration blips is kept).
+  struct Group {
+    std::vector<std::size_t> idx;
+    std::vector<std::pair<double, double>> how;  // per piece after the first: angle (deg), gap (s)
+    Pose pose;
+  };
+  std::vector<Group> groups;
+  for (std::size_t k = 0; k < pieces.size(); ++k) {
+    const Piece& pc = pieces[k];
     Pose cur = pose_over(rec, pc.begin, pc.end);
-    if (!d.poses.empty() && piece_run.back() != pc.run) {
-      Pose& prev = d.poses.back();
+    if (!groups.empty() && pieces[groups.back().idx.back()].run != pc.run) {
+      Pose& prev = groups.back().pose;
       const double gap_s = static_cast<double>(pc.begin - prev.end) / fs;
       const double ang = angle_deg(prev.acc, cur.acc);
       if (gap_s <= o.merge_gap_s && ang <= o.split_deg) {
@@ -241,18 +243,35 @@ Detection detect_poses(const Recording& rec, const DetectOptions& o) {
         prev.samples += cur.samples;
         prev.end = cur.end;
         prev.parts.push_back(cur.parts.front());
-        piece_run.back() = pc.run;
-        char buf[160];
-        std::snprintf(buf, sizeof buf, "merged into pose %zu: same attitude (%.2f deg) after %.2f s of motion",
-                      d.poses.size() - 1, ang, gap_s);
-        items.push_back({pc.begin, pc.end, buf, -1});
+        groups.back().idx.push_back(k);
+        groups.back().how.emplace_back(ang, gap_s);
         continue;
       }
     }
-    items.push_back({pc.begin, pc.end, pc.note.empty() ? "pose" : "pose (" + pc.note + ")",
-                     static_cast<int>(d.poses.size())});
-    d.poses.push_back(cur);
-    piece_run.push_back(pc.run);
+    groups.push_back({{k}, {}, cur});
+  }
+  for (Group& gr : groups) {
+    char buf[200];
+    const Piece& first = pieces[gr.idx.front()];
+    if (gr.pose.samples < min_len) {
+      std::snprintf(buf, sizeof buf, "rejected: shorter than min dwell (%.2f s < %.2f s%s)",
+                    static_cast<double>(gr.pose.samples) / fs, o.min_dwell_s,
+                    gr.idx.size() > 1 ? ", pieces merged" : "");
+      for (std::size_t k : gr.idx) {
+        const Piece& pc = pieces[k];
+        items.push_back({pc.begin, pc.end, pc.note.empty() ? std::string(buf) : pc.note + "; " + buf});
+      }
+      continue;
+    }
+    const int slot = static_cast<int>(d.poses.size());
+    items.push_back({first.begin, first.end, first.note.empty() ? "pose" : "pose (" + first.note + ")", slot});
+    for (std::size_t m = 1; m < gr.idx.size(); ++m) {
+      const Piece& pc = pieces[gr.idx[m]];
+      std::snprintf(buf, sizeof buf, "merged into pose %d: same attitude (%.2f deg) after %.2f s of motion", slot,
+                    gr.how[m - 1].first, gr.how[m - 1].second);
+      items.push_back({pc.begin, pc.end, buf, -1});
+    }
+    d.poses.push_back(std::move(gr.pose));
   }
   for (const Pose& p : d.poses) d.still_s += static_cast<double>(p.samples) / fs;
 

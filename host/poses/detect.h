@@ -6,7 +6,9 @@
 //  1. Centred sliding window (window_s): per channel mean and standard deviation. The noise floor of a
 //     channel is the 10th percentile of its windowed deviation (still windows are the quietest), floored
 //     at one count/√12 (a quantised sensor quieter than one count).
-//  2. Still accelerometer: RMS over the three axes of (window deviation / floor) below k_accel.
+//  2. Still accelerometer: RMS over the three axes of (window deviation / floor) below k_accel, or the
+//     deviation itself below hand_accel_mps2 (≈ 2 mg: a very quiet sensor on a table that someone bumps
+//     or walks past still averages to gravity; motion between poses is far above it and turns the gyro).
 //     Still gyro: the window's RMS rate about the gyro bias (mean offset AND scatter: a slow turn at
 //     constant rate has no scatter) below max(k_gyro × floor, hand_rate_rad_s). The bias is the median
 //     window mean over the accelerometer-still samples. The rate floor keeps hand-held poses (tremor of
@@ -18,9 +20,11 @@
 //     more than split_deg the run is split at its largest block-to-block step, recursively (a pose
 //     nudged without enough motion to break stillness, or a slow drift). Leading and trailing blocks
 //     farther than settle_deg from the piece's median direction are trimmed (slow settling).
-//  5. Pieces shorter than min_dwell_s, or with a clipped accelerometer sample, are rejected.
-//  6. Adjacent poses from different runs, at most merge_gap_s apart and within split_deg, are one pose
-//     that was bumped: they are merged (the gap's samples excluded).
+//  5. Pieces with a clipped accelerometer sample are rejected.
+//  6. Adjacent pieces from different runs, at most merge_gap_s apart and within split_deg, are one pose
+//     that was bumped: they are merged (the gap's samples excluded). Then a pose shorter than
+//     min_dwell_s in total is rejected (so vibration blips that cut a dwell into short pieces do not
+//     lose it).
 // Cost: O(n) for the windows plus O(n log n) for the percentiles; memory O(n).
 #pragma once
 
@@ -43,6 +47,7 @@ struct DetectOptions {
   double k_accel = 4.0;           // × the per-axis noise floor (standard deviation ratio)
   double k_gyro = 6.0;
   double hand_rate_rad_s = 0.05;  // ≈ 3 °/s: below it a hand-held IMU counts as still
+  double hand_accel_mps2 = 0.02;  // window deviation (norm over axes) that is still whatever the noise floor
   double block_s = 0.25;
   double split_deg = 3.0;
   double settle_deg = 0.5;

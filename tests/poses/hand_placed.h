@@ -22,6 +22,7 @@ struct Step {
   double duration_s = 5;
   double angle_deg = 90;   // kMove / kSlowTilt
   bool settle = false;     // kPose: a decaying wobble at the start
+  double blips_mps2 = 0;   // kPose: 0.1 s vibration bursts every 2 s (a bench someone knocks), 1σ
 };
 
 struct Sensor {
@@ -88,11 +89,16 @@ inline Truth generate(const std::vector<Step>& steps, const Sensor& s, unsigned 
           w = Eigen::Vector3d(1, 0.5, 0).normalized() * amp * (om * std::cos(om * ti) - std::sin(om * ti) / 0.6);
         }
         for (int k = 0; k < 3; ++k) w[k] += s.tremor_rad_s * n01(rng);
-        if (w.norm() > 0 && (st.settle || s.tremor_rad_s > 0)) {
+        Eigen::Vector3d a_dyn = Eigen::Vector3d::Zero();
+        if (st.blips_mps2 > 0 && std::fmod(ti, 2.0) > 1.0 && std::fmod(ti, 2.0) < 1.1) {
+          for (int k = 0; k < 3; ++k) a_dyn[k] = st.blips_mps2 * n01(rng);
+          for (int k = 0; k < 3; ++k) w[k] += 0.2 * n01(rng);  // the gyro sees the knock, not a turn
+        }
+        if (w.norm() > 0 && (st.settle || s.tremor_rad_s > 0) && st.blips_mps2 == 0) {
           q = q * Eigen::Quaterniond(Eigen::AngleAxisd(w.norm() * dt, w.normalized()));
           q.normalize();
         }
-        emit(w, Eigen::Vector3d::Zero());
+        emit(w, a_dyn);
       }
       continue;
     }
