@@ -10,6 +10,7 @@
 #include <set>
 
 #include "firmware/common/crc32.h"
+#include "host/eol/batch.h"
 #include "host/eol/journal.h"
 #include "host/eol/passfail.h"
 #include "host/eol/progress.h"
@@ -20,6 +21,7 @@
 #include "host/records/store.h"
 #include "host/physics/earth.h"
 #include "host/physics/table.h"
+#include "host/solver/consider.h"
 #include "host/solver/fixture.h"
 #include "host/solver/sha256.h"
 
@@ -149,6 +151,15 @@ RunResult Runner::run() {
   } catch (const std::exception& e) {
     throw std::invalid_argument(std::string("model: ") + e.what());
   }
+  // The fixture tolerance is checked against the campaign's table now, not after hours of collection.
+  if (!st.fixture_tolerance.is_null()) {
+    try {
+      solver::fixture_tolerance_from_json(st.fixture_tolerance, static_cast<int>(camp.axes.size()),
+                                          "station " + opt_.station_path);
+    } catch (const solver::SolverError& e) {
+      throw std::invalid_argument(e.what());
+    }
+  }
   const std::string campaign_sha = file_sha(opt_.campaign_path);
   const std::string station_sha = file_sha(opt_.station_path);
   std::string db = !opt_.db.empty() ? opt_.db : st.db;
@@ -240,6 +251,9 @@ RunResult Runner::run() {
   meta.latitude_deg = camp.latitude_deg;
   meta.height_m = camp.height_m;
   meta.gravity_mps2 = physics::normal_gravity_mps2(site);
+  // The reported table angles and rates go into every row: the consider analysis (honest σ) re-runs the
+  // table kinematics on them with the fixture's errors.
+  meta.table_axes = static_cast<int>(camp.axes.size());
   meta.set("source", "imuforge-run");
   meta.set("campaign", camp.name);
   meta.set("station", st.name);
@@ -473,6 +487,10 @@ RunResult Runner::run() {
           row.w_ref[j] = k.w_rad_s[j];
         }
         for (int j = 0; j < 6; ++j) row.raw[j] = s.raw[j];
+        for (int a = 0; a < meta.table_axes; ++a) {
+          row.table_angle_rad[a] = ang[static_cast<std::size_t>(a)] * kDeg;
+          row.table_rate_rad_s[a] = r0.rate_dps[static_cast<std::size_t>(a)] * kDeg;
+        }
         w.write(row);
         rows.push_back(row);
         if (raw_out) raw_out->push_back(s);
@@ -641,20 +659,16 @@ RunResult Runner::run() {
   const solver::Estimate recursive = tracker.estimate();
   solver::Estimate est = recursive;
   std::string solve_note = "srif";
+  Eigen::VectorXd sigma_noise;  // noise-only σ when the fixture tolerance widened est's covariance
+  json fixture_section = solver::fixture_tolerance_not_stated();
+  std::string consider_error;
   try {
-    io::LogReader lr(log_path);
-    solver::FixtureAccumulator acc(spec, lr.meta());
-    io::LogRow row;
-    while (lr.next(row)) acc.add(row);
-    acc.finish();
-    solver::Sigma6 noise = acc.static_noise_sigma();
-    if (st.accel_noise_mps2 > 0)
-      for (int c = 0; c < 3; ++c) noise[static_cast<std::size_t>(c)] = st.accel_noise_mps2;
-    if (st.gyro_noise_rad_s > 0)
-      for (int c = 3; c < 6; ++c) noise[static_cast<std::size_t>(c)] = st.gyro_noise_rad_s;
-    solver::FixtureSolution sol = solver::solve_fixture(acc, noise);
-    if (sol.estimate.names == est.names) {
-      est = sol.estimate;
+    UnitSolve us = solve_unit_log(log_path, st, spec, camp);
+    if (us.estimate.names == est.names) {
+      est = us.estimate;
+      sigma_noise = us.sigma_noise;
+      fixture_section = us.fixture_section;
+      consider_error = us.consider_error;
       solve_note = "batch fixture mode (host/solver)";
     } else {
       solve_note = "srif (batch names differ: per-plateau model?)";
@@ -673,10 +687,14 @@ RunResult Runner::run() {
   {
     json cal;
     cal["parameters"] = json::array();
-    for (int i = 0; i < n; ++i)
-      cal["parameters"].push_back({{"name", est.names[static_cast<std::size_t>(i)]},
-                                   {"value", std::isfinite(est.value[i]) ? est.value[i] : 0.0},
-                                   {"sigma", std::isfinite(sig[i]) ? sig[i] : -1.0}});
+    for (int i = 0; i < n; ++i) {
+      json p = {{"name", est.names[static_cast<std::size_t>(i)]},
+                {"value", std::isfinite(est.value[i]) ? est.value[i] : 0.0},
+                {"sigma", std::isfinite(sig[i]) ? sig[i] : -1.0}};
+      if (sigma_noise.size() == n) p["sigma_noise"] = sigma_noise[i];
+      cal["parameters"].push_back(p);
+    }
+    cal["fixture_tolerance"] = fixture_section;
     if (solvable) {
       json cov = json::array();
       for (int i = 0; i < n; ++i) {
@@ -698,6 +716,7 @@ RunResult Runner::run() {
     std::ofstream(out / "cal.json") << cal.dump(2) << "\n";
   }
   if (!solvable) extra_reasons.push_back("solve: some parameters are not observable from the collected segments");
+  if (!consider_error.empty()) extra_reasons.push_back(consider_error);
 
   std::vector<std::uint8_t> blob, readback;
   std::uint32_t crc = 0;

@@ -24,6 +24,19 @@ struct Nuisance {
   int what;   // 0 tilt_a, 1 tilt_b, 2 zero; mount: component 0..2
 };
 
+// Every nuisance parameter of an n_axes table; the mount's three last.
+std::vector<Nuisance> all_nuisance(int n_axes) {
+  std::vector<Nuisance> nu;
+  for (int a = 0; a < n_axes; ++a) {
+    const std::string p = "fixture.axis" + std::to_string(a) + ".";
+    nu.push_back({p + "tilt_a", a, 0});
+    nu.push_back({p + "tilt_b", a, 1});
+    nu.push_back({p + "zero", a, 2});
+  }
+  for (int k = 0; k < 3; ++k) nu.push_back({std::string("fixture.mount.r") + "xyz"[k], -1, k});
+  return nu;
+}
+
 physics::TableGeometry apply(const physics::TableGeometry& nominal, const std::vector<Nuisance>& nu, const Eigen::VectorXd& eta) {
   physics::TableGeometry g = nominal;
   for (size_t k = 0; k < nu.size(); ++k) {
@@ -317,16 +330,8 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
   while (log.next(row)) acc.add(row);
   acc.finish();
   const Sigma6 sigma = acc.static_noise_sigma();
-  std::vector<Nuisance> nu;
-  const int n_axes = static_cast<int>(c.axes.size());
-  for (int a = 0; a < n_axes; ++a) {
-    const std::string p = "fixture.axis" + std::to_string(a) + ".";
-    nu.push_back({p + "tilt_a", a, 0});
-    nu.push_back({p + "tilt_b", a, 1});
-    nu.push_back({p + "zero", a, 2});
-  }
-  if (opt.mount)
-    for (int k = 0; k < 3; ++k) nu.push_back({std::string("fixture.mount.r") + "xyz"[k], -1, k});
+  std::vector<Nuisance> nu = all_nuisance(static_cast<int>(c.axes.size()));
+  if (!opt.mount) nu.resize(nu.size() - 3);
   const int nm = static_cast<int>(spec.parameters().size());
   Eigen::VectorXd theta0 = Eigen::VectorXd::Zero(nm);
   try {
@@ -384,6 +389,29 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
   res.residual_rms = prob.residual_rms();
   res.samples = prob.samples();
   return res;
+}
+
+std::vector<std::string> fixture_nuisance_names(int n_axes) {
+  std::vector<std::string> names;
+  for (const Nuisance& n : all_nuisance(n_axes)) names.push_back(n.name);
+  return names;
+}
+
+Eigen::MatrixXd fixture_joint_information(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& c,
+                                          const std::vector<std::string>& nuisance, const Eigen::VectorXd& x,
+                                          const Sigma6& sigma) {
+  const std::vector<Nuisance> all = all_nuisance(static_cast<int>(c.axes.size()));
+  std::vector<Nuisance> nu;
+  for (const std::string& name : nuisance) {
+    auto it = std::find_if(all.begin(), all.end(), [&](const Nuisance& n) { return n.name == name; });
+    if (it == all.end()) throw SolverError("unknown fixture nuisance parameter '" + name + "'");
+    nu.push_back(*it);
+  }
+  FixtureErrorsProblem prob(log, spec, c, nu, sigma);
+  if (x.size() != prob.num_params()) throw SolverError("fixture_joint_information: x has the wrong size");
+  NormalEquations ne(prob.num_params());
+  prob.linearize(x, ne);
+  return ne.info;
 }
 
 FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const std::string& campaign_path) {
