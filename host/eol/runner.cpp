@@ -250,6 +250,8 @@ RunResult Runner::run() {
   meta.sample_rate_hz = dev_.effective_rate_hz(st.stream_rate_hz);
   meta.accel_lsb_mps2 = info.accel_lsb_mps2;
   meta.gyro_lsb_rad_s = info.gyro_lsb_rad_s;
+  meta.accel_bits = info.accel_raw_bits;  // width of the streamed counts: the log's clip rule follows it
+  meta.gyro_bits = info.gyro_raw_bits;
   meta.latitude_deg = camp.latitude_deg;
   meta.height_m = camp.height_m;
   meta.gravity_mps2 = physics::normal_gravity_mps2(site);
