@@ -38,7 +38,9 @@ int run_diagnose(int argc, char** argv) {
       ->check(CLI::IsMember({"auto", "segment", "plateau"}));
   app.add_option("--folds", opt.folds, "K for K-fold by segment")->check(CLI::Range(2, 100));
   app.add_option("--alpha", opt.alpha, "family-wise significance level (Bonferroni across candidates)")->check(CLI::Range(1e-12, 0.5));
-  app.add_option("--max-steps", opt.max_steps, "greedy forward-selection steps")->check(CLI::Range(0, 50));
+  app.add_option("--max-steps", opt.max_steps, "forward-selection steps (each followed by a backward pass)")->check(CLI::Range(0, 50));
+  std::string emit_model;
+  app.add_option("--emit-model", emit_model, "write the model in use plus the selected effects (model spec JSON) here");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -125,6 +127,30 @@ int run_diagnose(int argc, char** argv) {
     if (ec) {
       std::fprintf(stderr, "imuforge diagnose: cannot create '%s': %s\n", out_dir.c_str(), ec.message().c_str());
       return app::kExitFailed;
+    }
+    if (!emit_model.empty()) {
+      // The base model file as given (or the basic model), plus every selected deterministic effect.
+      nlohmann::json mj;
+      if (model_path == "basic") {
+        mj = {{"format", "imuforge-model"}, {"version", 1}, {"name", "basic"}, {"T_ref_C", 25.0}, {"effects", nlohmann::json::object()}};
+        for (const auto& e : base.effect_names) mj["effects"][e] = nlohmann::json::object();
+      } else {
+        std::ifstream f(model_path);
+        mj = nlohmann::json::parse(f);
+        if (mj.is_object() && mj.contains("model") && mj["model"].is_object()) mj = mj["model"];
+      }
+      for (const auto& st : r.selected) mj["effects"][st.sensor + "." + st.effect] = nlohmann::json::object();
+      mj["name"] = mj.value("name", std::string("model")) + "+diagnosis";
+      const std::string tmp = emit_model + ".tmp";
+      {
+        std::ofstream o(tmp);
+        o << mj.dump(2) << "\n";
+        if (!o) {
+          std::fprintf(stderr, "imuforge diagnose: cannot write %s\n", emit_model.c_str());
+          return app::kExitFailed;
+        }
+      }
+      std::filesystem::rename(tmp, emit_model);  // never a partial model file
     }
     nlohmann::json j = diagnosis::to_json(r);
     j["inputs"] = {{"log", log_path}, {"model", model_path}, {"sim", sim_path}, {"mode", rf ? "reference-free" : "fixture"}};
