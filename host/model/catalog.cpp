@@ -41,8 +41,9 @@ std::vector<EffectInfo> build_effects() {
   add(Effect::kGSensitivity, "g_sensitivity", "gyro g-dependence", kMaskGyro, K::kDeterministic,
       {"xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"}, "(rad/s)/(m/s^2)", "G_jk f_k");
   add(Effect::kG2Sensitivity, "g2_sensitivity", "gyro g-dependence", kMaskGyro, K::kDeterministic,
-      {"x.xy", "x.yz", "x.zx", "y.xy", "y.yz", "y.zx", "z.xy", "z.yz", "z.zx"}, "(rad/s)/(m/s^2)^2",
-      "anisoelastic G2_j,kl f_k f_l");
+      {"x.xy", "x.yz", "x.zx", "y.xy", "y.yz", "y.zx", "z.xy", "z.yz", "z.zx",
+       "x.xx", "x.yy", "x.zz", "y.xx", "y.yy", "y.zz", "z.xx", "z.yy", "z.zz"},
+      "(rad/s)/(m/s^2)^2", "g^2 sensitivity G2_j,kl f_k f_l: products (anisoelastic) and squares (IEEE 1431)");
   add(Effect::kSizeEffect, "size_effect", "accelerometer geometry", kMaskAccel, K::kDeterministic,
       {"x.rx", "x.ry", "x.rz", "y.rx", "y.ry", "y.rz", "z.rx", "z.ry", "z.rz"}, "m",
       "lever arm r_j of sensing axis j: [w x (w x r_j) + wdot x r_j]_j");

@@ -15,14 +15,15 @@ Eigen::Matrix3d size_matrix(const Vec3& w, const Vec3& wdot) {
   return W * W + Wd;
 }
 
-// G2 pairs: component "j.xy" -> (0,1), "j.yz" -> (1,2), "j.zx" -> (2,0).
+// G2 terms: products "j.xy" -> 0, "j.yz" -> 1, "j.zx" -> 2, squares (IEEE 1431) "j.xx" -> 3, "j.yy" -> 4, "j.zz" -> 5.
 int g2_pair(int k, int l) {
+  if (k == l) return 3 + k;
   if ((k == 0 && l == 1) || (k == 1 && l == 0)) return 0;
   if ((k == 1 && l == 2) || (k == 2 && l == 1)) return 1;
   return 2;
 }
-constexpr int kPairK[3] = {0, 1, 2};
-constexpr int kPairL[3] = {1, 2, 0};
+constexpr int kPairK[6] = {0, 1, 2, 0, 1, 2};
+constexpr int kPairL[6] = {1, 2, 0, 0, 1, 2};
 
 }  // namespace
 
@@ -87,7 +88,7 @@ Vec3 measure(const CompiledTriad& c, const MeasureInput& in, const MeasureOption
     acc += c.asym[j] * std::min(u[j], 0.0);
     if (gyro) {
       for (int k = 0; k < 3; ++k) acc += c.G[j][k] * in.f[k];
-      for (int q = 0; q < 3; ++q) acc += c.G2[j][q] * in.f[kPairK[q]] * in.f[kPairL[q]];
+      for (int q = 0; q < 6; ++q) acc += c.G2[j][q] * in.f[kPairK[q]] * in.f[kPairL[q]];
     }
     acc += c.hyst[j] * in.d + c.trate[j] * in.Tdot_C_s;
     if (opt.include_timing) acc -= (c.latency_s + c.ppm * 1e-6 * in.t_s) * ud[j];
