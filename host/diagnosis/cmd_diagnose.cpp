@@ -10,6 +10,7 @@
 #include "host/app/command.h"
 #include "host/diagnosis/diagnose.h"
 #include "host/diagnosis/sources.h"
+#include "host/poses/detect.h"
 #include "host/model/sensor_model.h"
 
 namespace {
@@ -22,12 +23,15 @@ int run_diagnose(int argc, char** argv) {
                argv[0]};
   std::string log_path, model_path, sim_path, out_dir, mode = "auto", cv = "auto", sensor_path;
   diagnosis::Options opt;
+  bool explain_poses = false;
   app.add_option("--log", log_path, "log to diagnose (log v1, CSV or binary)")->required();
   app.add_option("--model", model_path, "model spec JSON in use (docs/formats.md), a cal.json with a \"model\", or 'basic'")->required();
   app.add_option("--sim", sim_path, "simulation log of the same campaign: its static Allan curve is the claimed noise, "
                                     "and it supplies references the real log lacks");
   app.add_option("--sensor", sensor_path, "sensor model JSON: its white_noise densities are the claimed noise");
   app.add_option("--out", out_dir, "output folder (diagnosis.json, report.html)")->required();
+  app.add_flag("--explain-poses", explain_poses,
+               "reference-free: print every stretch of the recording (start, end, duration, mean, verdict/reason)");
   app.add_option("--mode", mode, "fixture | reference-free | auto (reference-free when the log has no reference)")
       ->check(CLI::IsMember({"auto", "fixture", "reference-free"}));
   app.add_option("--cv", opt.cv, "withholding: segment (K-fold by segment) | plateau (leave-one-plateau-out) | auto")
@@ -103,8 +107,11 @@ int run_diagnose(int argc, char** argv) {
     }
     std::unique_ptr<diagnosis::ReferenceFreeSource> rf;
     if (mode == "reference-free" || (mode == "auto" && !any_ref)) {
-      rf = std::make_unique<diagnosis::ReferenceFreeSource>(*src, real.meta().gravity_mps2);
+      rf = std::make_unique<diagnosis::ReferenceFreeSource>(*src, real.meta().gravity_mps2, poses::DetectOptions{},
+                                                            real.meta().accel_lsb_mps2, real.meta().gyro_lsb_rad_s,
+                                                            real.meta().sample_rate_hz);
       src = rf.get();
+      if (explain_poses) std::printf("%s", poses::explain_table(rf->detection()).c_str());
       std::printf("reference-free: %d static poses (%.0f s); gravity-magnitude fit with %d parameters: RMS over poses %.4g -> %.4g m/s^2\n",
                   rf->info().poses, rf->info().static_s, rf->info().calibrated_params, rf->info().accel_rms_before, rf->info().accel_rms_after);
     } else if (mode == "fixture" && !any_ref) {
