@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "host/app/cli_options.h"
 #include "host/app/command.h"
 #include "host/io/import.h"
 
@@ -20,10 +21,10 @@ int run_import(int argc, char** argv) {
       ->check(CLI::IsMember({"xsens-imutk", "mpu6050-csv"}));
   app.add_option("--in", o.in, "input file (xsens: accelerometer file)")->required();
   app.add_option("--in-gyro", o.in_gyro, "xsens: gyro file");
-  app.add_option("--out", out, "output log (.csv or .bin)")->required();
+  app.add_option("--out", out, "output log (.csv, .bin or .h5)")->required();
   app.add_option("--serial", o.serial, "serial for the metadata (default: from the file name)");
   app.add_option("--rate", o.sample_rate_hz, "override the sample rate (Hz)")->check(CLI::PositiveNumber);
-  app.add_option("--log-format", format, "auto|csv|bin")->check(CLI::IsMember({"auto", "csv", "bin"}));
+  imuforge::app::add_log_format_option(app, format);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -34,7 +35,7 @@ int run_import(int argc, char** argv) {
     return imuforge::app::kExitUsage;
   }
   using imuforge::io::LogEncoding;
-  LogEncoding enc = format == "csv" ? LogEncoding::kCsv : format == "bin" ? LogEncoding::kBinary : LogEncoding::kAuto;
+  const LogEncoding enc = imuforge::io::encoding_from_name(format);
   try {
     auto s = imuforge::io::import_recording(o, out, enc);
     std::fprintf(stderr, "imported %llu rows, %.1f s at %.3f Hz -> %s\n", static_cast<unsigned long long>(s.rows),

@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "host/app/cli_options.h"
 #include "host/app/command.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
@@ -15,7 +16,7 @@ namespace {
 
 int run_simulate(int argc, char** argv) {
   CLI::App app{"Simulate a campaign: true fixture motion and temperature in, raw IMU samples out.\n"
-               "Writes log v1 (docs/formats.md): binary if --out ends in .bin (or --format bin), else CSV.",
+               "Writes log v1 (docs/formats.md): binary if --out ends in .bin, HDF5 if .h5 (or --format), else CSV.",
                "imuforge simulate"};
   std::string campaign_path, sensor_path, out_path, truth_path, format = "auto", serial = "SIM-0001";
   std::uint64_t seed = 1;
@@ -24,11 +25,11 @@ int run_simulate(int argc, char** argv) {
   app.add_option("--campaign", campaign_path, "campaign JSON (docs/formats.md)")->required();
   app.add_option("--sensor", sensor_path, "sensor model JSON")->required();
   app.add_option("--seed", seed, "random seed (same seed -> bit-identical log)");
-  app.add_option("--out", out_path, "output log (.csv or .bin)")->required();
+  app.add_option("--out", out_path, "output log (.csv, .bin or .h5)")->required();
   app.add_option("--truth", truth_path, "write the true parameters, realised turn-on bias, fixture errors, segments");
   app.add_option("--rate", rate_hz, "sample rate Hz (default: the campaign's)")->check(CLI::PositiveNumber);
   app.add_option("--max-duration", max_s, "stop after this many simulated seconds")->check(CLI::PositiveNumber);
-  app.add_option("--format", format, "auto|csv|bin")->check(CLI::IsMember({"auto", "csv", "bin"}));
+  imuforge::app::add_log_format_option(app, format, "--format,--log-format");
   app.add_option("--serial", serial, "serial written to the log metadata");
   app.add_flag("--no-fixture-errors", no_fixture_errors, "ignore the campaign's simulated fixture errors");
   app.add_flag("--quiet", quiet, "no summary on stderr");
@@ -53,9 +54,7 @@ int run_simulate(int argc, char** argv) {
   opt.serial = serial;
   opt.use_campaign_fixture_errors = !no_fixture_errors;
   opt.max_duration_s = max_s;
-  io::LogEncoding enc = format == "csv" ? io::LogEncoding::kCsv
-                        : format == "bin" ? io::LogEncoding::kBinary
-                                          : io::LogEncoding::kAuto;
+  const io::LogEncoding enc = io::encoding_from_name(format);
   const auto t0 = std::chrono::steady_clock::now();
   sim::SimSummary sum;
   try {

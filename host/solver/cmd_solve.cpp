@@ -100,7 +100,7 @@ void write_json(const std::string& path, const nlohmann::json& j) {
 int run_solve(int argc, char** argv) {
   CLI::App app{"Calibrate: estimate the model's parameters with covariance from a log (docs/calibration.md)"};
   Args a;
-  app.add_option("--log", a.log, "log v1 (CSV or binary)")->required();
+  app.add_option("--log", a.log, "log v1 (CSV, binary or HDF5)")->required();
   app.add_option("--model", a.model, "model file (docs/examples/model-basic.json, model-thermal.json)")->required();
   app.add_option("--mode", a.mode, "reference mode")->check(CLI::IsMember({"fixture", "fixture+errors", "reference-free"}));
   app.add_option("--method", a.method, "inverse (weighted least squares) or traditional (six-position, CW/CCW)")
