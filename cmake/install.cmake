@@ -76,6 +76,9 @@ if(IMUFORGE_HOST)
   list(REVERSE _order)
   set(_seen ${_order})
   set(IMUFORGE_INSTALLED_HOST_LIBS ${_seen})
+  # Position independent: the Python module (host/python) links them into a shared object, and so may
+  # a lab's own shared library built against the installed package.
+  set_target_properties(imuforge_fw ${_seen} PROPERTIES POSITION_INDEPENDENT_CODE ON)
   set(_pc_libs "")
   foreach(_t ${_seen})
     string(REGEX REPLACE "^imuforge_" "" _short ${_t})

@@ -12,13 +12,15 @@ namespace {
 int run_import(int argc, char** argv) {
   CLI::App app{"Convert a real recording to log v1 (no fixture reference, temperature unknown).\n"
                "  xsens-imutk: --in xsens_acc.txt --in-gyro xsens_gyro.txt\n"
-               "  mpu6050-csv: --in example_data_calibration.csv",
+               "  mpu6050-csv: --in example_data_calibration.csv\n"
+               "  csv:         --in export.csv --map map.json (column map: docs/formats.md)",
                "imuforge import"};
   imuforge::io::ImportOptions o;
   std::string out, format = "auto";
-  app.add_option("--format", o.format, "xsens-imutk | mpu6050-csv")
+  app.add_option("--format", o.format, "xsens-imutk | mpu6050-csv | csv")
       ->required()
-      ->check(CLI::IsMember({"xsens-imutk", "mpu6050-csv"}));
+      ->check(CLI::IsMember({"xsens-imutk", "mpu6050-csv", "csv"}));
+  app.add_option("--map", o.map, "csv: the column map (JSON)");
   app.add_option("--in", o.in, "input file (xsens: accelerometer file)")->required();
   app.add_option("--in-gyro", o.in_gyro, "xsens: gyro file");
   app.add_option("--out", out, "output log (.csv, .bin or .h5)")->required();
@@ -32,6 +34,10 @@ int run_import(int argc, char** argv) {
   }
   if (o.format == "xsens-imutk" && o.in_gyro.empty()) {
     std::fprintf(stderr, "imuforge import: xsens-imutk needs --in-gyro\n");
+    return imuforge::app::kExitUsage;
+  }
+  if (o.format == "csv" && o.map.empty()) {
+    std::fprintf(stderr, "imuforge import: csv needs --map MAP.json\n");
     return imuforge::app::kExitUsage;
   }
   using imuforge::io::LogEncoding;
@@ -49,4 +55,4 @@ int run_import(int argc, char** argv) {
 
 }  // namespace
 
-IMUFORGE_COMMAND(import, "convert a real recording (xsens-imutk, mpu6050-csv) to log v1", run_import);
+IMUFORGE_COMMAND(import, "convert a real recording (xsens-imutk, mpu6050-csv, any CSV with a column map) to log v1", run_import);

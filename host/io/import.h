@@ -7,7 +7,11 @@
 //   mpu6050-csv  tomisuarez2/ImuCalibration: metadata rows (`Fs,100`, …), header `ax,ay,az,gx,gy,gz`,
 //                int16 counts; no time column, so t_s = i / Fs. Nominal LSBs from the configured ranges:
 //                accel ±2 g = 9.80665/16384 m/s², gyro ±250 °/s = (π/180)/131 rad/s.
-// Both: temperature unknown (temp_C, chamber_C empty = NaN), has_ref = false, segment = −1 (no
+//   csv          any delimited text export, described by a column map (JSON, docs/formats.md): delimiter,
+//                header names or 1-based indices, time column and unit (or a sample rate), accel/gyro in
+//                counts with their LSB or in physical units with the sensor's resolution, optional
+//                temperature, free metadata. Errors name the file, line and column.
+// All: temperature unknown unless mapped (temp_C, chamber_C empty = NaN), has_ref = false, segment = −1 (no
 // fixture schedule: reference-free consumers detect static intervals themselves), table_axes = 0.
 #pragma once
 
@@ -19,11 +23,12 @@
 namespace imuforge::io {
 
 struct ImportOptions {
-  std::string format;      // "xsens-imutk" or "mpu6050-csv"
+  std::string format;      // "xsens-imutk", "mpu6050-csv" or "csv"
   std::string in;          // accel file (xsens) or the CSV (mpu6050)
   std::string in_gyro;     // xsens only
   std::string serial;      // written to metadata ("" -> derived from the file name)
   double sample_rate_hz = 0;  // 0 = from the file (xsens: median Δt; mpu6050: its Fs row)
+  std::string map;            // csv only: the column map (JSON); last, so positional initialisers still fit
 };
 
 struct ImportSummary {
@@ -32,9 +37,13 @@ struct ImportSummary {
   double sample_rate_hz = 0;
 };
 
-// Writes the converted log to `out_path` (encoding by extension, or `enc`). Throws LogError naming the
-// input file, line and column on malformed input.
+// Writes the converted log to `out_path` (encoding by extension, or `enc`) through `<out_path>.partial`,
+// renamed at the end: a failure leaves no output. Throws LogError naming the input file, line and column
+// on malformed input (and the map file and key for a bad column map).
 ImportSummary import_recording(const ImportOptions& opt, const std::string& out_path,
                                LogEncoding enc = LogEncoding::kAuto);
+
+// The "csv" format alone (host/io/import_csv.cpp); writes out_path directly.
+ImportSummary import_mapped_csv(const ImportOptions& opt, const std::string& out_path, LogEncoding enc);
 
 }  // namespace imuforge::io
