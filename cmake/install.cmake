@@ -48,10 +48,14 @@ if(CMAKE_CROSSCOMPILING AND TARGET imuforge_mcu_test_rt)
   install(FILES ${PROJECT_SOURCE_DIR}/hal/mcu/systick_clock.h DESTINATION ${_inc}/hal/mcu)
 endif()
 
-# ---- host presets: the libraries a lab links (log reader/writer, table writer, solver, diagnosis) and
+# ---- host presets: the libraries a lab links (log reader/writer, table writer, solver, diagnosis,
+# navigation impact) and
 # every imuforge library they depend on, found by walking their link dependencies (so a library that
 # moves or splits needs no change here).
 set(IMUFORGE_LAB_LIBS imuforge_io imuforge_table imuforge_solver imuforge_diagnosis)
+if(TARGET imuforge_navigate)
+  list(APPEND IMUFORGE_LAB_LIBS imuforge_navigate)  # navigation impact of a calibration
+endif()
 set(IMUFORGE_INSTALLED_HOST_LIBS "")
 if(IMUFORGE_HOST)
   get_property(_host_libs GLOBAL PROPERTY IMUFORGE_HOST_LIBS)

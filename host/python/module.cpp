@@ -17,6 +17,12 @@
 #include "host/io/import.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
+#include "host/nav/strapdown.h"
+#include "host/navigate/candidates.h"
+#include "host/navigate/impact.h"
+#include "host/navigate/report.h"
+#include "host/sim/trajectory_file.h"
+#include "host/sim/vehicle_sim.h"
 #include "host/solver/calfile.h"
 #include "host/solver/fixture.h"
 #include "host/solver/reference_free.h"
@@ -214,14 +220,7 @@ py::object solve(const std::string& log_path, const py::object& model, const std
     res.noise_sigma = r.residual_rms;
     res.noise_source = "within-pose scatter";
     res.samples = static_cast<long long>(rec.y.size());
-    res.extra["reference_free"] = {{"static_poses", r.intervals.size()},
-                                   {"threshold_k", r.threshold_k},
-                                   {"gravity_mps2", r.gravity_mps2},
-                                   {"gravity_source", rec.gravity_source},
-                                   {"gravity_rms_before_mps2", r.gravity_rms_before},
-                                   {"gravity_rms_after_mps2", r.gravity_rms_after},
-                                   {"transitions_used", r.transitions_used},
-                                   {"gauge_fixed_zero", r.gauge_fixed}};
+    res.extra["reference_free"] = solver::reference_free_summary(r, rec);
   } else if (mode == "fixture") {
     solver::FixtureAccumulator acc(spec, log.meta());
     io::LogRow row;
@@ -395,6 +394,44 @@ py::tuple compensate(const std::string& table_path, const py::array_t<std::int32
   return py::make_tuple(acc, gyr, status);
 }
 
+// Navigation impact (imuforge navigate without the σ-requirement section): nav.json as a dict.
+py::object navigate_impact(const std::string& trajectory, const std::string& sensor_path, const std::vector<std::string>& cals,
+                           const std::string& outage, double outage_start_s, double outage_s, int runs,
+                           std::uint64_t seed, int threads) {
+  const sim::TrajectoryFile tf = sim::load_trajectory(trajectory);
+  const model::SensorModel sensor = model::load_sensor_model(sensor_path);
+  navigate::NavReport rep;
+  navigate::ImpactOptions& opt = rep.opt;
+  if (std::isfinite(outage_start_s) && std::isfinite(outage_s)) {
+    opt.outage_start_s = outage_start_s;
+    opt.outage_s = outage_s;
+  } else {
+    sim::labelled_span(tf.trajectory, outage, opt.outage_start_s, opt.outage_s);
+    rep.outage_label = outage;
+  }
+  opt.runs = runs;
+  opt.seed = seed;
+  opt.threads = threads;
+  const sim::VehicleTruth truth = sim::vehicle_truth(tf, sensor);
+  const navigate::RawFormat fmt = navigate::raw_format(sensor);
+  opt.accel_shift = fmt.accel_shift;
+  opt.gyro_shift = fmt.gyro_shift;
+  std::vector<navigate::Candidate> cands{navigate::uncompensated_candidate(fmt)};
+  for (const auto& c : cals) cands.push_back(navigate::calibration_candidate(c, fmt, truth.temp_C));
+  cands.push_back(navigate::oracle_candidate(sensor, fmt, truth.temp_C));
+  rep.trajectory_path = trajectory;
+  rep.trajectory_name = tf.name;
+  rep.sensor_path = sensor_path;
+  rep.sensor_name = sensor.name;
+  rep.ambient_C = tf.ambient_C;
+  rep.truth = &truth;
+  for (std::size_t i = 1; i < truth.states.size(); ++i)
+    rep.distance_m += nav::horizontal_offset_m(truth.states[i].pos, truth.states[i - 1].pos).norm();
+  rep.result = navigate::run_impact(truth, sensor, cands, opt);
+  rep.predicted_rms_m.assign(cands.size(), std::nan(""));
+  return to_py(navigate::nav_json(rep));
+}
+
 py::dict import_recording(const std::string& format, const std::string& in, const std::string& out,
                           const std::string& in_gyro, const std::string& serial, double rate_hz, const std::string& map) {
   io::ImportOptions o;
@@ -438,6 +475,11 @@ PYBIND11_MODULE(imuforge, m) {
   m.def("compensate", &compensate, py::arg("table"), py::arg("raw"), py::arg("temp_C"), py::arg("path") = "f32",
         py::arg("step_degC") = 0.0,
         "Runs the firmware kernel over N samples: returns (accel N×3 m/s², gyro N×3 rad/s, status N).");
+  m.def("navigate", &navigate_impact, py::arg("trajectory"), py::arg("sensor"), py::arg("cals") = std::vector<std::string>{},
+        py::arg("outage") = "tunnel", py::arg("outage_start_s") = NAN, py::arg("outage_s") = NAN, py::arg("runs") = 20,
+        py::arg("seed") = 1, py::arg("threads") = 0,
+        "Navigation impact of calibrations through a GNSS outage (Monte Carlo; docs/navigation.md): the nav.json "
+        "dict. outage: a trajectory segment label, or outage_start_s and outage_s.");
   m.def("import_recording", &import_recording, py::arg("format"), py::arg("input"), py::arg("out"),
         py::arg("in_gyro") = "", py::arg("serial") = "", py::arg("rate_hz") = 0.0, py::arg("map") = "",
         "imuforge import as a function (xsens-imutk, mpu6050-csv, csv with map=); returns rows, duration, rate.");

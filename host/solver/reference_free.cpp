@@ -8,7 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "host/model/catalog.h"
-#include "host/sim/earth.h"
+#include "host/physics/earth.h"
 
 namespace imuforge::solver {
 
@@ -172,10 +172,10 @@ RawRecording read_recording(io::LogReader& log) {
     rec.gravity_mps2 = m.gravity_mps2;
     rec.gravity_source = "log metadata";
   } else if (std::isfinite(m.latitude_deg)) {
-    sim::Site s;
+    physics::Site s;
     s.latitude_deg = m.latitude_deg;
     s.height_m = std::isfinite(m.height_m) ? m.height_m : 0.0;
-    rec.gravity_mps2 = sim::normal_gravity_mps2(s);
+    rec.gravity_mps2 = physics::normal_gravity_mps2(s);
     rec.gravity_source = "normal gravity at the log's latitude/height";
   } else {
     rec.gravity_mps2 = 9.80665;
@@ -565,6 +565,20 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
   }
   for (int c = 0; c < 6; ++c) res.residual_rms[static_cast<size_t>(c)] = std::sqrt(ss[static_cast<size_t>(c)] / std::max(1.0, cnt));
   return res;
+}
+
+nlohmann::json reference_free_summary(const ReferenceFreeResult& r, const RawRecording& rec) {
+  return {{"static_poses", r.intervals.size()},
+          {"threshold_k", r.threshold_k},
+          {"gravity_mps2", r.gravity_mps2},
+          {"gravity_source", rec.gravity_source},
+          {"gravity_rms_before_mps2", r.gravity_rms_before},
+          {"gravity_rms_after_mps2", r.gravity_rms_after},
+          {"gravity_direction_rms_before", r.rotation_rms_before},
+          {"gravity_direction_rms_after", r.rotation_rms_after},
+          {"transitions_used", r.transitions_used},
+          {"transitions_clipped", r.transitions_clipped},
+          {"gauge_fixed_zero", r.gauge_fixed}};
 }
 
 }  // namespace imuforge::solver
