@@ -24,8 +24,11 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev clang-14 libclang-rt-14-dev lld
   # records: PostgreSQL server and client library for the multi-station test
   postgresql libpq-dev
-  # python3 for small test helpers; numpy for the independent blind-log generator (tools/blindgen)
-  python3 python3-numpy
+  # python3 for small test helpers; numpy for the independent blind-log generator (tools/blindgen);
+  # the Python module (pybind11), its tests and the docs/python.md example (matplotlib)
+  python3 python3-dev pybind11-dev python3-numpy python3-matplotlib
+  # HDF5 logs: the library, and h5dump for the test that opens a log without imuforge
+  libhdf5-dev hdf5-tools
 )
 
 export DEBIAN_FRONTEND=noninteractive

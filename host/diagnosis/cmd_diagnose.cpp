@@ -24,7 +24,7 @@ int run_diagnose(int argc, char** argv) {
   std::string log_path, model_path, sim_path, out_dir, mode = "auto", cv = "auto", sensor_path;
   diagnosis::Options opt;
   bool explain_poses = false;
-  app.add_option("--log", log_path, "log to diagnose (log v1, CSV or binary)")->required();
+  app.add_option("--log", log_path, "log to diagnose (log v1: CSV, binary or HDF5)")->required();
   app.add_option("--model", model_path, "model spec JSON in use (docs/formats.md), a cal.json with a \"model\", or 'basic'")->required();
   app.add_option("--sim", sim_path, "simulation log of the same campaign: its static Allan curve is the claimed noise, "
                                     "and it supplies references the real log lacks");

@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "host/app/cli_options.h"
 #include "host/app/command.h"
 #include "host/io/import.h"
 #include "host/poses/detect.h"
@@ -15,25 +16,27 @@ int run_import(int argc, char** argv) {
                "  xsens-imutk: --in xsens_acc.txt --in-gyro xsens_gyro.txt\n"
                "  mpu6050-csv: --in example_data_calibration.csv\n"
                "  si-csv:      --in rec.csv (t_s,ax,ay,az,gx,gy,gz in m/s^2, rad/s) [--accel-lsb --gyro-lsb --bits]\n"
+               "  csv:         --in export.csv --map map.json (column map: docs/formats.md)\n"
                "Then previews the static poses the reference-free front end finds (--explain-poses: every stretch).",
                "imuforge import"};
   imuforge::io::ImportOptions o;
   std::string out, format = "auto";
-  app.add_option("--format", o.format, "xsens-imutk | mpu6050-csv | si-csv")
+  app.add_option("--format", o.format, "xsens-imutk | mpu6050-csv | si-csv | csv")
       ->required()
-      ->check(CLI::IsMember({"xsens-imutk", "mpu6050-csv", "si-csv"}));
+      ->check(CLI::IsMember({"xsens-imutk", "mpu6050-csv", "si-csv", "csv"}));
   app.add_option("--accel-lsb", o.accel_lsb_mps2, "si-csv: m/s^2 per count")->check(CLI::PositiveNumber);
   app.add_option("--gyro-lsb", o.gyro_lsb_rad_s, "si-csv: rad/s per count")->check(CLI::PositiveNumber);
   app.add_option("--bits", o.bits, "si-csv: raw word width declared in the log")->check(CLI::Range(2, 32));
+  app.add_option("--map", o.map, "csv: the column map (JSON)");
   bool explain = false, no_preview = false;
   app.add_flag("--explain-poses", explain, "print the pose detector's table (start, end, duration, mean, verdict)");
   app.add_flag("--no-preview", no_preview, "skip the static-pose preview");
   app.add_option("--in", o.in, "input file (xsens: accelerometer file)")->required();
   app.add_option("--in-gyro", o.in_gyro, "xsens: gyro file");
-  app.add_option("--out", out, "output log (.csv or .bin)")->required();
+  app.add_option("--out", out, "output log (.csv, .bin or .h5)")->required();
   app.add_option("--serial", o.serial, "serial for the metadata (default: from the file name)");
   app.add_option("--rate", o.sample_rate_hz, "override the sample rate (Hz)")->check(CLI::PositiveNumber);
-  app.add_option("--log-format", format, "auto|csv|bin")->check(CLI::IsMember({"auto", "csv", "bin"}));
+  imuforge::app::add_log_format_option(app, format);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -43,8 +46,12 @@ int run_import(int argc, char** argv) {
     std::fprintf(stderr, "imuforge import: xsens-imutk needs --in-gyro\n");
     return imuforge::app::kExitUsage;
   }
+  if (o.format == "csv" && o.map.empty()) {
+    std::fprintf(stderr, "imuforge import: csv needs --map MAP.json\n");
+    return imuforge::app::kExitUsage;
+  }
   using imuforge::io::LogEncoding;
-  LogEncoding enc = format == "csv" ? LogEncoding::kCsv : format == "bin" ? LogEncoding::kBinary : LogEncoding::kAuto;
+  const LogEncoding enc = imuforge::io::encoding_from_name(format);
   try {
     auto s = imuforge::io::import_recording(o, out, enc);
     std::fprintf(stderr, "imported %llu rows, %.1f s at %.3f Hz -> %s\n", static_cast<unsigned long long>(s.rows),
@@ -68,4 +75,4 @@ int run_import(int argc, char** argv) {
 
 }  // namespace
 
-IMUFORGE_COMMAND(import, "convert a real recording (xsens-imutk, mpu6050-csv) to log v1", run_import);
+IMUFORGE_COMMAND(import, "convert a real recording (xsens-imutk, mpu6050-csv, any CSV with a column map) to log v1", run_import);

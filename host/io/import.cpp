@@ -1,7 +1,11 @@
 #include "host/io/import.h"
 
+#include "host/io/import_detail.h"
+
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
+#include <cstdio>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -9,9 +13,9 @@
 
 namespace imuforge::io {
 
-namespace {
+// Shared with the column-mapping import (import_csv.cpp) through import_detail.h.
+namespace detail {
 
-constexpr double kG = 9.80665;
 
 std::string base_name(const std::string& p) {
   auto s = p.find_last_of('/');
@@ -51,6 +55,11 @@ std::int32_t to_count(const std::string& s, double lo, double hi, const std::str
                    std::to_string(static_cast<long>(hi)) + "], got '" + s + "'");
   return static_cast<std::int32_t>(v);
 }
+
+}  // namespace detail
+using namespace detail;
+
+namespace {
 
 struct XsensRow {
   double t;
@@ -310,10 +319,23 @@ ImportSummary import_si_csv(const ImportOptions& o, const std::string& out, LogE
 }  // namespace
 
 ImportSummary import_recording(const ImportOptions& opt, const std::string& out_path, LogEncoding enc) {
-  if (opt.format == "xsens-imutk") return import_xsens(opt, out_path, enc);
-  if (opt.format == "mpu6050-csv") return import_mpu6050(opt, out_path, enc);
-  if (opt.format == "si-csv") return import_si_csv(opt, out_path, enc);
-  throw LogError("unknown import format '" + opt.format + "' (expected xsens-imutk, mpu6050-csv or si-csv)");
+  ImportSummary (*fn)(const ImportOptions&, const std::string&, LogEncoding) = nullptr;
+  if (opt.format == "xsens-imutk") fn = import_xsens;
+  else if (opt.format == "mpu6050-csv") fn = import_mpu6050;
+  else if (opt.format == "si-csv") fn = import_si_csv;
+  else if (opt.format == "csv") fn = import_mapped_csv;
+  else throw LogError("unknown import format '" + opt.format + "' (expected xsens-imutk, mpu6050-csv, si-csv or csv)");
+  if (enc == LogEncoding::kAuto) enc = encoding_from_path(out_path);
+  const std::string tmp = out_path + ".partial";
+  try {
+    const ImportSummary s = fn(opt, tmp, enc);
+    if (std::rename(tmp.c_str(), out_path.c_str()) != 0)
+      throw LogError(out_path + ": cannot rename from " + tmp + ": " + std::strerror(errno));
+    return s;
+  } catch (...) {
+    std::remove(tmp.c_str());
+    throw;
+  }
 }
 
 }  // namespace imuforge::io

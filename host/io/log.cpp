@@ -1,5 +1,8 @@
 #include "host/io/log.h"
 
+#include "host/io/log_detail.h"
+#include "host/io/log_h5.h"
+
 #include <cctype>
 #include <cerrno>
 #include <charconv>
@@ -12,7 +15,8 @@ namespace imuforge::io {
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "binary log I/O assumes a little-endian host");
 static_assert(sizeof(double) == 8, "binary log needs IEEE-754 binary64");
 
-namespace {
+// Shared with the HDF5 encoding (log_h5.cpp) through log_detail.h.
+namespace detail {
 
 constexpr std::size_t kBinHeaderFixed = 28;      // magic 8, version 4, record bytes 4, row count 8, meta len 4
 constexpr std::size_t kMaxLine = 1u << 20;       // a CSV line longer than this is rejected (hostile input)
@@ -158,7 +162,8 @@ T get(const char*& p) {
   return v;
 }
 
-}  // namespace
+}  // namespace detail
+using namespace detail;
 
 const std::string* LogMeta::find(const std::string& key) const {
   for (const auto& kv : extra)
@@ -182,16 +187,28 @@ LogEncoding encoding_from_path(const std::string& path) {
     std::size_t n = std::strlen(suf);
     return path.size() >= n && path.compare(path.size() - n, n, suf) == 0;
   };
+  if (ends(".h5") || ends(".hdf5")) return LogEncoding::kHdf5;
   return (ends(".bin") || ends(".imulog") || ends(".ilog")) ? LogEncoding::kBinary : LogEncoding::kCsv;
+}
+
+LogEncoding encoding_from_name(const std::string& name) {
+  if (name == "auto") return LogEncoding::kAuto;
+  if (name == "csv") return LogEncoding::kCsv;
+  if (name == "bin") return LogEncoding::kBinary;
+  if (name == "h5") return LogEncoding::kHdf5;
+  throw LogError("unknown log format '" + name + "' (auto, csv, bin or h5)");
 }
 
 // ================================================================= reader
 
+LogReader::LogReader() = default;
+LogReader::LogReader(const std::string& path) { open(path); }
 LogReader::~LogReader() { close(); }
 
 void LogReader::close() {
   if (f_) std::fclose(f_);
   f_ = nullptr;
+  h5_.reset();
 }
 
 namespace {
@@ -225,6 +242,13 @@ void LogReader::open(const std::string& path) {
   if (!f_) throw LogError(path + ": cannot open: " + std::strerror(errno));
   char magic[8] = {};
   std::size_t got = std::fread(magic, 1, 8, f_);
+  if (got == 8 && h5::is_hdf5_signature(magic)) {
+    close();
+    enc_ = LogEncoding::kHdf5;
+    h5_ = std::make_unique<h5::Reader>(path, meta_);
+    declared_rows_ = h5_->rows();
+    return;
+  }
   if (got == 8 && std::memcmp(magic, kLogBinaryMagic, 8) == 0) {
     enc_ = LogEncoding::kBinary;
     char h[kBinHeaderFixed - 8];
@@ -316,16 +340,21 @@ void LogReader::open(const std::string& path) {
 }
 
 bool LogReader::next(LogRow& row) {
-  if (!f_) throw LogError(path_ + ": log not open");
-  if (!(enc_ == LogEncoding::kBinary ? next_bin(row) : next_csv(row))) return false;
+  if (h5_) {
+    if (!h5_->next(row)) return false;
+    ++rows_;
+  } else {
+    if (!f_) throw LogError(path_ + ": log not open");
+    if (!(enc_ == LogEncoding::kBinary ? next_bin(row) : next_csv(row))) return false;
+  }
   // A count outside the declared word width is a corrupt row or wrong metadata: either way the clip
   // rule (a count at the width's limit) would misjudge it, so it is refused here, by line.
   for (int c = 0; c < 6; ++c) {
     const int bits = c < 3 ? meta_.accel_bits : meta_.gyro_bits;
     if (raw_fits(row.raw[c], bits)) continue;
     static const char* kCol[6] = {"ax", "ay", "az", "gx", "gy", "gz"};
-    const std::string where = enc_ == LogEncoding::kBinary ? path_ + ": record " + std::to_string(rows_ - 1)
-                                                           : path_ + ":" + std::to_string(line_);
+    const std::string where = enc_ == LogEncoding::kCsv ? path_ + ":" + std::to_string(line_)
+                                                        : path_ + ": record " + std::to_string(rows_ - 1);
     throw LogError(where + ": " + kCol[c] + " count " + std::to_string(row.raw[c]) + " exceeds the declared " +
                    std::to_string(bits) + "-bit raw word (" + (c < 3 ? "accel_bits" : "gyro_bits") + "=" +
                    std::to_string(bits) + ", range " + std::to_string(raw_min(bits)) + ".." +
@@ -446,6 +475,11 @@ bool LogReader::next_csv(LogRow& row) {
 }
 
 void LogReader::rewind() {
+  if (h5_) {
+    h5_->rewind();
+    rows_ = 0;
+    return;
+  }
   if (!f_) throw LogError(path_ + ": log not open");
   if (std::fseek(f_, data_offset_, SEEK_SET) != 0) throw LogError(path_ + ": cannot seek: " + std::strerror(errno));
   rows_ = 0;
@@ -453,6 +487,9 @@ void LogReader::rewind() {
 }
 
 // ================================================================= writer
+
+LogWriter::LogWriter() = default;
+LogWriter::LogWriter(const std::string& path, const LogMeta& meta, LogEncoding enc) { open(path, meta, enc); }
 
 LogWriter::~LogWriter() {
   try {
@@ -468,6 +505,10 @@ void LogWriter::open(const std::string& path, const LogMeta& meta, LogEncoding e
   enc_ = enc == LogEncoding::kAuto ? encoding_from_path(path) : enc;
   rows_ = 0;
   table_axes_ = meta.table_axes;
+  if (enc_ == LogEncoding::kHdf5) {
+    h5_ = std::make_unique<h5::Writer>(path, meta);
+    return;
+  }
   f_ = std::fopen(path.c_str(), "wb");
   if (!f_) throw LogError(path + ": cannot create: " + std::strerror(errno));
   buf_.clear();
@@ -496,6 +537,11 @@ void LogWriter::open(const std::string& path, const LogMeta& meta, LogEncoding e
 }
 
 void LogWriter::write(const LogRow& r) {
+  if (h5_) {
+    h5_->write(r);
+    ++rows_;
+    return;
+  }
   if (!f_) throw LogError(path_ + ": log not open for writing");
   if (enc_ == LogEncoding::kBinary) {
     std::size_t n = buf_.size();
@@ -549,6 +595,10 @@ void LogWriter::flush_buffer() {
 }
 
 void LogWriter::flush() {
+  if (h5_) {
+    h5_->flush();
+    return;
+  }
   if (!f_) return;
   flush_buffer();
   if (std::fflush(f_) != 0) throw LogError(path_ + ": flush failed: " + std::strerror(errno));
@@ -560,6 +610,11 @@ void LogWriter::sync() {
 }
 
 void LogWriter::close() {
+  if (h5_) {
+    std::unique_ptr<h5::Writer> w = std::move(h5_);
+    w->close();
+    return;
+  }
   if (!f_) return;
   std::FILE* f = f_;
   try {

@@ -1,10 +1,12 @@
 // Log format v1: one row per IMU sample, with fixture reference and raw counts (docs/formats.md).
 //
-// Two encodings carry identical content:
+// Three encodings carry identical content:
 //   CSV    `# key=value` metadata lines, one header line, one text row per sample (human-readable).
 //   binary magic "IMUFLOG1", a length-prefixed metadata block (the same key=value lines), then packed
 //          little-endian fixed-size records of kLogBinaryRecordBytes (fast, 3.6 M rows/h at 1 kHz).
-// LogReader auto-detects the encoding from the first bytes, so every command accepts both.
+//   HDF5   the same metadata as root attributes, one chunked, compressed 1-D dataset per CSV column
+//          (docs/formats.md; h5py and MATLAB's h5read open it without imuforge).
+// LogReader auto-detects the encoding from the first bytes, so every command accepts all three.
 //
 // Conventions
 //   - f_ref (m/s²) and w_ref (rad/s) are what an ideal IMU would read, in the IMU's NOMINAL frame,
@@ -20,12 +22,18 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
 namespace imuforge::io {
+
+namespace h5 {
+class Reader;
+class Writer;
+}  // namespace h5
 
 constexpr int kLogFormatVersion = 1;
 // Packed record size of the binary form (see docs/formats.md for the byte layout).
@@ -89,16 +97,20 @@ constexpr bool raw_fits(std::int64_t count, int bits) { return count >= raw_min(
 // A count at either limit of the word: the sensor saturated there.
 constexpr bool raw_clipped(std::int64_t count, int bits) { return count <= raw_min(bits) || count >= raw_max(bits); }
 
-enum class LogEncoding { kAuto, kCsv, kBinary };
+enum class LogEncoding { kAuto, kCsv, kBinary, kHdf5 };
 
-// Encoding from a file name: ".bin"/".imulog"/".ilog" -> binary, anything else -> CSV.
+// Encoding from a file name: ".bin"/".imulog"/".ilog" -> binary, ".h5"/".hdf5" -> HDF5, else CSV.
 LogEncoding encoding_from_path(const std::string& path);
+// Encoding from a command-line name: "auto", "csv", "bin" or "h5" (throws LogError otherwise).
+LogEncoding encoding_from_name(const std::string& name);
+// The names encoding_from_name accepts, for CLI checks.
+inline const char* const kLogFormatNames[] = {"auto", "csv", "bin", "h5"};
 
 // Streaming reader: memory does not depend on file length. Not copyable.
 class LogReader {
  public:
-  LogReader() = default;
-  explicit LogReader(const std::string& path) { open(path); }
+  LogReader();
+  explicit LogReader(const std::string& path);
   ~LogReader();
   LogReader(const LogReader&) = delete;
   LogReader& operator=(const LogReader&) = delete;
@@ -116,12 +128,13 @@ class LogReader {
   LogEncoding encoding() const { return enc_; }
   const std::string& path() const { return path_; }
   std::uint64_t rows_read() const { return rows_; }
-  // Binary only: number of records announced in the header (0 if the writer did not close cleanly).
+  // Binary: records announced in the header (0 if the writer did not close cleanly); HDF5: dataset length.
   std::uint64_t declared_rows() const { return declared_rows_; }
 
  private:
   bool next_csv(LogRow& row);
   bool next_bin(LogRow& row);
+  std::unique_ptr<h5::Reader> h5_;  // HDF5 encoding (host/io/log_h5.cpp)
   std::FILE* f_ = nullptr;
   std::string path_;
   LogMeta meta_;
@@ -139,11 +152,9 @@ class LogReader {
 // carry bit-identical numbers. Rows are buffered (1 MiB); flush()/sync() push them out.
 class LogWriter {
  public:
-  LogWriter() = default;
+  LogWriter();
   // enc == kAuto chooses by extension (encoding_from_path).
-  LogWriter(const std::string& path, const LogMeta& meta, LogEncoding enc = LogEncoding::kAuto) {
-    open(path, meta, enc);
-  }
+  LogWriter(const std::string& path, const LogMeta& meta, LogEncoding enc = LogEncoding::kAuto);
   ~LogWriter();  // closes (errors are swallowed here; call close() to see them)
   LogWriter(const LogWriter&) = delete;
   LogWriter& operator=(const LogWriter&) = delete;
@@ -160,6 +171,7 @@ class LogWriter {
   std::uint64_t rows_written() const { return rows_; }
 
  private:
+  std::unique_ptr<h5::Writer> h5_;  // HDF5 encoding (host/io/log_h5.cpp)
   std::FILE* f_ = nullptr;
   std::string path_;
   LogEncoding enc_ = LogEncoding::kAuto;

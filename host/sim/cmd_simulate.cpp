@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "host/app/cli_options.h"
 #include "host/io/campaign_file.h"
 #include "host/app/command.h"
 #include "host/io/log.h"
@@ -18,7 +19,7 @@ namespace {
 
 int run_simulate(int argc, char** argv) {
   CLI::App app{"Simulate a campaign: true fixture motion and temperature in, raw IMU samples out.\n"
-               "Writes log v1 (docs/formats.md): binary if --out ends in .bin (or --format bin), else CSV.",
+               "Writes log v1 (docs/formats.md): binary if --out ends in .bin, HDF5 if .h5 (or --format), else CSV.",
                "imuforge simulate"};
   std::string campaign_path, trajectory_path, sensor_path, out_path, truth_path, format = "auto", serial = "SIM-0001";
   std::uint64_t seed = 1;
@@ -30,11 +31,11 @@ int run_simulate(int argc, char** argv) {
   ot->excludes(oc);
   app.add_option("--sensor", sensor_path, "sensor model JSON")->required();
   app.add_option("--seed", seed, "random seed (same seed -> bit-identical log)");
-  app.add_option("--out", out_path, "output log (.csv or .bin)")->required();
+  app.add_option("--out", out_path, "output log (.csv, .bin or .h5)")->required();
   app.add_option("--truth", truth_path, "write the true parameters, realised turn-on bias, fixture errors, segments");
   app.add_option("--rate", rate_hz, "sample rate Hz (default: the campaign's)")->check(CLI::PositiveNumber);
   app.add_option("--max-duration", max_s, "stop after this many simulated seconds")->check(CLI::PositiveNumber);
-  app.add_option("--format", format, "auto|csv|bin")->check(CLI::IsMember({"auto", "csv", "bin"}));
+  imuforge::app::add_log_format_option(app, format, "--format,--log-format");
   app.add_option("--serial", serial, "serial written to the log metadata");
   app.add_flag("--no-fixture-errors", no_fixture_errors, "ignore the campaign's simulated fixture errors");
   app.add_flag("--quiet", quiet, "no summary on stderr");
@@ -48,9 +49,7 @@ int run_simulate(int argc, char** argv) {
     std::fprintf(stderr, "imuforge simulate: give --campaign or --trajectory\n");
     return app::kExitUsage;
   }
-  io::LogEncoding enc = format == "csv" ? io::LogEncoding::kCsv
-                        : format == "bin" ? io::LogEncoding::kBinary
-                                          : io::LogEncoding::kAuto;
+  const io::LogEncoding enc = io::encoding_from_name(format);
   if (!trajectory_path.empty()) {
     try {
       const sim::TrajectoryFile tf = sim::load_trajectory(trajectory_path);

@@ -144,7 +144,7 @@ void write_json(const std::string& path, const nlohmann::json& j) {
 int run_solve(int argc, char** argv) {
   CLI::App app{"Calibrate: estimate the model's parameters with covariance from a log (docs/calibration.md)"};
   Args a;
-  app.add_option("--log", a.logs, "log v1 (CSV or binary); reference-free: repeat for several recordings of one unit "
+  app.add_option("--log", a.logs, "log v1 (CSV, binary or HDF5); reference-free: repeat for several recordings of one unit "
                                   "(calibrated each and together, spread vs sigma, cross-application)")
       ->required();
   app.add_option("--model", a.model, "model file (docs/examples/model-basic.json, model-thermal.json)")->required();
@@ -254,18 +254,7 @@ int run_solve(int argc, char** argv) {
     res.samples = 0;
     for (const RawRecording* x : all) res.samples += static_cast<long long>(x->y.size());
     res.observability.unobservable.clear();
-    res.extra["reference_free"] = {{"static_poses", r.intervals.size()},
-                                   {"gravity_mps2", r.gravity_mps2},
-                                   {"gravity_source", rec.gravity_source},
-                                   {"gravity_rms_before_mps2", r.gravity_rms_before},
-                                   {"gravity_rms_after_mps2", r.gravity_rms_after},
-                                   {"gravity_direction_rms_before", r.rotation_rms_before},
-                                   {"gravity_direction_rms_after", r.rotation_rms_after},
-                                   {"transitions_used", r.transitions_used},
-                                   {"transitions_clipped", r.transitions_clipped},
-                                   {"gyro_bits", rec.gyro_bits},
-                                   {"accel_bits", rec.accel_bits},
-                                   {"gauge_fixed_zero", r.gauge_fixed}};
+    res.extra["reference_free"] = reference_free_summary(r, rec);
     std::printf("reference-free: %zu static poses, gravity %.5f m/s² (%s)\n", r.intervals.size(), r.gravity_mps2,
                 rec.gravity_source.c_str());
     std::printf("  gravity-magnitude residual RMS: before %.4e m/s², after %.4e m/s²\n", r.gravity_rms_before,

@@ -450,4 +450,19 @@ ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>&
   return res;
 }
 
+nlohmann::json reference_free_summary(const ReferenceFreeResult& r, const RawRecording& rec) {
+  return {{"static_poses", r.intervals.size()},
+          {"gravity_mps2", r.gravity_mps2},
+          {"gravity_source", rec.gravity_source},
+          {"gravity_rms_before_mps2", r.gravity_rms_before},
+          {"gravity_rms_after_mps2", r.gravity_rms_after},
+          {"gravity_direction_rms_before", r.rotation_rms_before},
+          {"gravity_direction_rms_after", r.rotation_rms_after},
+          {"transitions_used", r.transitions_used},
+          {"transitions_clipped", r.transitions_clipped},
+          {"gyro_bits", rec.gyro_bits},
+          {"accel_bits", rec.accel_bits},
+          {"gauge_fixed_zero", r.gauge_fixed}};
+}
+
 }  // namespace imuforge::solver

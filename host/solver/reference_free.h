@@ -68,6 +68,9 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
 // first recording's.
 ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>& recs, const model::ModelSpec& spec,
                                          const ReferenceFreeOptions& opt = {});
+// The "reference_free" section of cal.json (poses, threshold, gravity and its source, residuals before
+// and after, transitions, gauge), shared by `imuforge solve` and the Python module.
+nlohmann::json reference_free_summary(const ReferenceFreeResult& r, const RawRecording& rec);
 
 // Applies a (reference-free) calibration to a triad sample: (I+M)⁻¹ (y − b).
 struct TriadCal {

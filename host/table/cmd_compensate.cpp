@@ -24,7 +24,7 @@ int run_compensate(int argc, char** argv) {
   double temp_override = std::numeric_limits<double>::quiet_NaN();
   bool quiet = false;
   app.add_option("--table", table_path, "coefficient table v1 (binary, docs/table-format.md)")->required();
-  app.add_option("--in", in_path, "raw log v1 (.csv or .bin)")->required();
+  app.add_option("--in", in_path, "raw log v1 (.csv, .bin or .h5)")->required();
   app.add_option("--out", out_path, "compensated CSV to write")->required();
   app.add_option("--path", path_name, "kernel arithmetic: f32 (FPU parts) or fixed (integer-only parts)")
       ->check(CLI::IsMember({"f32", "fixed"}));

@@ -57,3 +57,32 @@ TEST(Cli, ExitCodes) {
   EXPECT_EQ(sh("import --format xsens-imutk --in " + tmp("x.csv") + " --out " + tmp("y.csv")), 2);  // needs --in-gyro
   EXPECT_EQ(sh("import --format mpu6050-csv --in /nonexistent.csv --out " + tmp("y.csv")), 1);
 }
+
+// HDF5 is a first-class log: `simulate --format h5` writes it, `convert` carries it to binary byte for
+// byte, and `solve` reads it to the same parameters as the binary log of the same run.
+TEST(Cli, Hdf5LogThroughSimulateConvertAndSolve) {
+  if (!std::filesystem::exists(IMUFORGE_BIN)) GTEST_SKIP() << "imuforge not built";
+  const std::string base = "simulate --campaign " + ex("campaign-small.json") + " --sensor " +
+                           ex("sensor-consumer.json") + " --seed 4 --rate 50";
+  ASSERT_EQ(sh(base + " --format h5 --out " + tmp("h.log")), 0);  // forced encoding, odd extension
+  ASSERT_EQ(sh(base + " --out " + tmp("h.bin")), 0);
+  {
+    imuforge::io::LogReader r(tmp("h.log"));
+    EXPECT_EQ(r.encoding(), imuforge::io::LogEncoding::kHdf5);
+  }
+  ASSERT_EQ(sh("convert --in " + tmp("h.log") + " --out " + tmp("h2.bin")), 0);
+  EXPECT_EQ(slurp(tmp("h.bin")), slurp(tmp("h2.bin")));
+  EXPECT_FALSE(std::filesystem::exists(tmp("h2.bin.partial")));
+  const std::string solve = "solve --model " + ex("model-basic.json");
+  ASSERT_EQ(sh(solve + " --log " + tmp("h.log") + " --out " + tmp("cal-h5.json")), 0);
+  ASSERT_EQ(sh(solve + " --log " + tmp("h.bin") + " --out " + tmp("cal-bin.json")), 0);
+  const auto a = nlohmann::json::parse(slurp(tmp("cal-h5.json")));
+  const auto b = nlohmann::json::parse(slurp(tmp("cal-bin.json")));
+  EXPECT_EQ(a["parameters"], b["parameters"]);
+  EXPECT_GT(a["parameters"].size(), 10u);
+  // A broken input leaves no output behind.
+  std::ofstream(tmp("broken.h5"), std::ios::binary) << "\x89HDF\r\n\x1a\n garbage";
+  EXPECT_EQ(sh("convert --in " + tmp("broken.h5") + " --out " + tmp("never.csv")), 1);
+  EXPECT_FALSE(std::filesystem::exists(tmp("never.csv")));
+  EXPECT_FALSE(std::filesystem::exists(tmp("never.csv.partial")));
+}
