@@ -710,6 +710,7 @@ def generate(case, out_dir, fmt='csv'):
     meta = {
         'format': 'imuforge-log', 'format_version': 1, 'serial': 'BLIND-%d' % seed,
         'sample_rate_hz': fs, 'accel_lsb_mps2': float(sensor['accel']['lsb']), 'gyro_lsb_rad_s': float(sensor['gyro']['lsb']),
+        'accel_bits': int(sensor['accel'].get('bits', 16)), 'gyro_bits': int(sensor['gyro'].get('bits', 16)),
         'latitude_deg': scn.lat, 'height_m': scn.h, 'gravity_mps2': scn.g, 'table_axes': 3 if log_table else 0,
         'source': 'blindgen', 'frame': 'NED',
     }
