@@ -24,8 +24,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev clang-14 libclang-rt-14-dev lld
   # records: PostgreSQL server and client library for the multi-station test
   postgresql libpq-dev
-  # python3 for small test helpers (stdlib only)
-  python3
+  # python3 for small test helpers; numpy for the independent blind-log generator (tools/blindgen)
+  python3 python3-numpy
 )
 
 export DEBIAN_FRONTEND=noninteractive

@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "host/benchsim/world.h"
-#include "host/sim/earth.h"
-#include "host/sim/table.h"
+#include "host/physics/earth.h"
+#include "host/physics/table.h"
 
 namespace imuforge::benchsim {
 
@@ -41,15 +41,15 @@ class SimWorld final : public World {
     geom_.n_axes = c.axes;
     for (int i = 0; i < c.axes; ++i) {
       geom_.axes[static_cast<size_t>(i)].name = "axis" + std::to_string(i);
-      geom_.axes[static_cast<size_t>(i)].axis_nominal = sim::axis_from_name(c.axis_names[static_cast<size_t>(i)]);
+      geom_.axes[static_cast<size_t>(i)].axis_nominal = physics::axis_from_name(c.axis_names[static_cast<size_t>(i)]);
     }
-    geom_.mount.C_imu_plat = sim::rotation_zyx_deg(c.mount_ypr_deg[0], c.mount_ypr_deg[1], c.mount_ypr_deg[2]).transpose();
+    geom_.mount.C_imu_plat = physics::rotation_zyx_deg(c.mount_ypr_deg[0], c.mount_ypr_deg[1], c.mount_ypr_deg[2]).transpose();
     geom_.mount.lever_arm_m = Eigen::Vector3d(c.lever_arm_m[0], c.lever_arm_m[1], c.lever_arm_m[2]);
-    sim::Site site;
+    physics::Site site;
     site.latitude_deg = c.latitude_deg;
     site.height_m = c.height_m;
-    g_ned_ = sim::gravity_ned(site);
-    wie_ned_ = sim::earth_rate_ned(site);
+    g_ned_ = physics::gravity_ned(site);
+    wie_ned_ = physics::earth_rate_ned(site);
     setpoint_ = ramped_ = air_ = die_ = c.initial_C;
     ramp_ = std::min(c.ramp_C_per_min, c.max_ramp_C_per_min);
     axes_.resize(static_cast<size_t>(c.axes));
@@ -117,13 +117,13 @@ class SimWorld final : public World {
   }
 
   ImuTruth imu_truth() const override {
-    sim::TableState st;
+    physics::TableState st;
     for (int i = 0; i < cfg_.axes; ++i) {
       st.angle_rad[static_cast<size_t>(i)] = axes_[static_cast<size_t>(i)].angle;
       st.rate_rad_s[static_cast<size_t>(i)] = axes_[static_cast<size_t>(i)].rate;
       st.accel_rad_s2[static_cast<size_t>(i)] = axes_[static_cast<size_t>(i)].accel;
     }
-    const sim::ImuKinematics k = sim::table_kinematics(geom_, st, g_ned_, wie_ned_);
+    const physics::ImuKinematics k = physics::table_kinematics(geom_, st, g_ned_, wie_ned_);
     ImuTruth t;
     t.t_s = t_;
     t.f_mps2 = k.f_mps2;
@@ -190,7 +190,7 @@ class SimWorld final : public World {
   }
 
   WorldConfig cfg_;
-  sim::TableGeometry geom_;
+  physics::TableGeometry geom_;
   Eigen::Vector3d g_ned_, wie_ned_;
   std::vector<Axis> axes_;
   double t_ = 0.0;

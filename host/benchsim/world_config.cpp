@@ -1,3 +1,4 @@
+#include "host/io/campaign_file.h"
 #include "host/benchsim/world_config.h"
 
 #include <algorithm>
@@ -8,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 
 namespace imuforge::benchsim {
 
@@ -57,9 +58,9 @@ WorldConfig world_config(const std::string& campaign_path, const std::string& wo
   WorldConfig wc;
   wc.seed = seed;
   if (!campaign_path.empty()) {
-    sim::Campaign c;
+    physics::Campaign c;
     try {
-      c = sim::load_campaign(campaign_path);
+      c = io::load_campaign(campaign_path);
     } catch (const std::exception& e) {
       throw std::runtime_error(std::string("campaign: ") + e.what());
     }

@@ -19,6 +19,7 @@
 
 #include "firmware/table/table.h"
 #include "host/app/command.h"
+#include "host/can/bus_budget.h"
 #include "host/can/client.h"
 #include "host/vimu/virtual_imu.h"
 
@@ -58,10 +59,52 @@ int run_can(int argc, char** argv) {
   c_flash->add_option("--key-hex", key_hex, "device key, 64 hex digits");
   c_flash->add_flag("--dev-key", dev_key, "use the public development key of the node's serial (virtual IMU)");
   auto* c_reboot = app.add_subcommand("reboot", "reset the node");
+  auto* c_budget = app.add_subcommand("budget", "bus load of N units streaming (worst-case stuffing); exit 1 above the limit");
+  int units = 1, buses = 1;
+  double budget_rate = 200, limit = can::kDefaultLoadLimit;
+  can::BusTiming timing;
+  bool table = false;
+  c_budget->add_option("--units", units, "units streaming")->check(CLI::Range(1, 1024))->capture_default_str();
+  c_budget->add_option("--rate", budget_rate, "stream rate, Hz")->check(CLI::Range(1.0, 2000.0))->capture_default_str();
+  c_budget->add_option("--buses", buses, "buses the units are spread over evenly")->check(CLI::Range(1, 64))->capture_default_str();
+  c_budget->add_flag("--fd", timing.fd, "CAN FD stream frames (docs/can-protocol.md)");
+  c_budget->add_option("--bitrate", timing.nominal_bit_s, "nominal (arbitration) bit rate, bit/s")->capture_default_str();
+  c_budget->add_option("--data-bitrate", timing.data_bit_s, "CAN FD data bit rate, bit/s")->capture_default_str();
+  c_budget->add_option("--limit", limit, "refuse above this fraction of the bus")->check(CLI::Range(0.01, 1.0))->capture_default_str();
+  c_budget->add_flag("--table", table, "print the load for 1, 4, 8, 16 units at 200 Hz and 1 kHz, classic and FD");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? app::kExitOk : app::kExitUsage;
+  }
+  if (c_budget->parsed()) {
+    timing.ext_id = ext;
+    if (table) {
+      can::BusTiming fd = timing;
+      fd.fd = true;
+      can::BusTiming classic = timing;
+      classic.fd = false;
+      std::printf("worst-case bus load, %s ids, classic %.0f kbit/s, FD %.0f/%.0f kbit/s (%d samples per frame)\n",
+                  ext ? "29-bit" : "11-bit", classic.nominal_bit_s / 1e3, fd.nominal_bit_s / 1e3, fd.data_bit_s / 1e3,
+                  can::kFdSamplesPerFrame);
+      std::printf("| units | 200 Hz classic | 200 Hz FD | 1 kHz classic | 1 kHz FD |\n|---|---|---|---|---|\n");
+      for (int n : {1, 4, 8, 16})
+        std::printf("| %d | %.1f %% | %.1f %% | %.1f %% | %.1f %% |\n", n, 100 * can::stream_load_worst(classic, n, 200),
+                    100 * can::stream_load_worst(fd, n, 200), 100 * can::stream_load_worst(classic, n, 1000),
+                    100 * can::stream_load_worst(fd, n, 1000));
+      return app::kExitOk;
+    }
+    std::vector<can::BusPlan> plan;
+    for (int b = 0; b < buses; ++b) plan.push_back({"#" + std::to_string(b), units / buses + (b < units % buses ? 1 : 0)});
+    const can::BudgetVerdict v = can::check_budget(timing, plan, budget_rate, limit);
+    for (std::size_t b = 0; b < plan.size(); ++b)
+      std::printf("bus %s: %d units at %.0f Hz: %.1f %% worst case (%.1f %% without stuffing)\n", plan[b].bus.c_str(),
+                  plan[b].units, budget_rate, 100 * v.load[b], 100 * can::stream_load_nominal(timing, plan[b].units, budget_rate));
+    if (!v.ok) {
+      std::fprintf(stderr, "imuforge can budget: %s\n", v.message.c_str());
+      return app::kExitFailed;
+    }
+    return app::kExitOk;
   }
   if (c_flash->parsed() && key_hex.empty() == !dev_key) {
     std::cerr << "imuforge can flash: give exactly one of --key-hex and --dev-key\n";
@@ -161,4 +204,4 @@ int run_can(int argc, char** argv) {
 
 }  // namespace
 
-IMUFORGE_COMMAND(can, "talk to an imuforge CAN node: identify, status, stream, read-table, flash, reboot", run_can);
+IMUFORGE_COMMAND(can, "talk to an imuforge CAN node: identify, status, stream, read-table, flash, reboot; bus budget", run_can);

@@ -8,100 +8,19 @@
 #include <stdexcept>
 
 #include "host/eol/progress.h"
+#include "host/io/svg_chart.h"
 
 namespace imuforge::eol {
 
 namespace {
 
-std::string esc(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      default: o += c;
-    }
-  }
-  return o;
-}
-
-std::string fmt(double x, const char* f = "%.4g") {
-  if (std::isnan(x)) return "n/a";
-  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
-  char b[64];
-  std::snprintf(b, sizeof b, f, x);
-  return b;
-}
-
-struct Series {
-  std::string name, color;
-  std::vector<std::pair<double, double>> pts;
-  bool markers = false;
-};
-
-const char* kColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b",
-                         "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
-
-// A line chart as inline SVG. logy: log10 axis (non-positive points dropped). hline: a dashed level.
+using io::html_escape;
+const auto esc = html_escape;
+std::string fmt(double x, const char* f = "%.4g") { return io::fmt_num(x, f); }
+using Series = io::ChartSeries;
 std::string chart(const std::string& title, const std::vector<Series>& series, const std::string& xlabel,
                   const std::string& ylabel, bool logy = false, double hline = NAN, int W = 760, int H = 260) {
-  const double L = 70, R = 150, T = 24, B = 36;
-  double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
-  auto ty = [&](double y) { return logy ? std::log10(y) : y; };
-  for (const auto& s : series)
-    for (auto [x, y] : s.pts) {
-      if (!std::isfinite(x) || !std::isfinite(y) || (logy && y <= 0)) continue;
-      x0 = std::min(x0, x); x1 = std::max(x1, x);
-      y0 = std::min(y0, ty(y)); y1 = std::max(y1, ty(y));
-    }
-  if (std::isfinite(hline) && (!logy || hline > 0)) { y0 = std::min(y0, ty(hline)); y1 = std::max(y1, ty(hline)); }
-  std::string o = "<svg xmlns='http://www.w3.org/2000/svg' width='" + std::to_string(W) + "' height='" +
-                  std::to_string(H) + "' viewBox='0 0 " + std::to_string(W) + " " + std::to_string(H) +
-                  "' font-family='sans-serif' font-size='11'>";
-  o += "<text x='" + std::to_string(W / 2) + "' y='14' text-anchor='middle' font-weight='bold'>" + esc(title) + "</text>";
-  if (!(x1 >= x0) || !(y1 >= y0)) return o + "<text x='20' y='60'>no data</text></svg>";
-  if (x1 == x0) { x0 -= 1; x1 += 1; }
-  if (y1 == y0) { y0 -= 1; y1 += 1; }
-  double pad = 0.05 * (y1 - y0);
-  y0 -= pad; y1 += pad;
-  auto X = [&](double x) { return L + (x - x0) / (x1 - x0) * (W - L - R); };
-  auto Y = [&](double y) { return H - B - (ty(y) - y0) / (y1 - y0) * (H - T - B); };
-  o += "<rect x='" + fmt(L) + "' y='" + fmt(T) + "' width='" + fmt(W - L - R) + "' height='" + fmt(H - T - B) +
-       "' fill='none' stroke='#999'/>";
-  for (int i = 0; i <= 4; ++i) {
-    double yv = y0 + (y1 - y0) * i / 4.0;
-    double py = H - B - (H - T - B) * i / 4.0;
-    o += "<line x1='" + fmt(L) + "' x2='" + fmt(W - R) + "' y1='" + fmt(py) + "' y2='" + fmt(py) + "' stroke='#eee'/>";
-    o += "<text x='" + fmt(L - 4) + "' y='" + fmt(py + 4) + "' text-anchor='end'>" + fmt(logy ? std::pow(10, yv) : yv, "%.3g") + "</text>";
-    double xv = x0 + (x1 - x0) * i / 4.0;
-    double px = L + (W - L - R) * i / 4.0;
-    o += "<text x='" + fmt(px) + "' y='" + fmt(H - B + 14) + "' text-anchor='middle'>" + fmt(xv, "%.4g") + "</text>";
-  }
-  o += "<text x='" + fmt(L + (W - L - R) / 2) + "' y='" + fmt(H - 4.0) + "' text-anchor='middle'>" + esc(xlabel) + "</text>";
-  o += "<text x='12' y='" + fmt(T + (H - T - B) / 2) + "' transform='rotate(-90 12 " + fmt(T + (H - T - B) / 2) +
-       ")' text-anchor='middle'>" + esc(ylabel) + "</text>";
-  if (std::isfinite(hline) && (!logy || hline > 0))
-    o += "<line x1='" + fmt(L) + "' x2='" + fmt(W - R) + "' y1='" + fmt(Y(hline)) + "' y2='" + fmt(Y(hline)) +
-         "' stroke='#000' stroke-dasharray='5,4'/>";
-  int li = 0;
-  for (const auto& s : series) {
-    std::string path;
-    for (auto [x, y] : s.pts) {
-      if (!std::isfinite(x) || !std::isfinite(y) || (logy && y <= 0)) continue;
-      path += (path.empty() ? "M" : "L") + fmt(X(x), "%.1f") + "," + fmt(Y(y), "%.1f");
-      if (s.markers) o += "<circle cx='" + fmt(X(x), "%.1f") + "' cy='" + fmt(Y(y), "%.1f") + "' r='2' fill='" + s.color + "'/>";
-    }
-    if (!s.markers && !path.empty()) o += "<path d='" + path + "' fill='none' stroke='" + s.color + "' stroke-width='1.3'/>";
-    if (li < 16) {
-      double ly = T + 10 + 13 * li;
-      o += "<rect x='" + fmt(W - R + 8) + "' y='" + fmt(ly - 8) + "' width='10' height='3' fill='" + s.color + "'/>";
-      o += "<text x='" + fmt(W - R + 22) + "' y='" + fmt(ly - 3) + "'>" + esc(s.name) + "</text>";
-    }
-    ++li;
-  }
-  return o + "</svg>";
+  return io::line_chart(title, series, xlabel, ylabel, logy, hline, W, H);
 }
 
 // A small bar: value ± 2σ against ±limit (the limit is the full half-width).
@@ -171,7 +90,7 @@ std::string render_report(const ReportData& d) {
     for (int phase = 0; phase < 2; ++phase) {
       std::vector<Series> ss;
       for (int k = 0; k < 3; ++k) {
-        Series s{std::string(sensor ? "gyro." : "accel.") + ax[k], kColors[k], {}, true};
+        Series s{std::string(sensor ? "gyro." : "accel.") + ax[k], io::chart_color(k), {}, true};
         for (const auto& sr : d.residuals)
           s.pts.push_back({static_cast<double>(sr.segment), (phase ? sr.after : sr.before)[static_cast<std::size_t>(3 * sensor + k)]});
         ss.push_back(s);
@@ -182,7 +101,7 @@ std::string render_report(const ReportData& d) {
   }
 
   h += "<h2>Temperature profile</h2>";
-  h += chart("temperature", {{"IMU die", kColors[1], d.imu_temp_C, false}, {"chamber air", kColors[0], d.chamber_temp_C, false}},
+  h += chart("temperature", {{"IMU die", io::chart_color(1), d.imu_temp_C, false}, {"chamber air", io::chart_color(0), d.chamber_temp_C, false}},
              "run time (s, fixture clock)", "°C");
 
   h += "<h2>σ convergence</h2><p>σ / spec per parameter with a σ spec, after each segment (log scale; dashed: spec).</p>";
@@ -190,7 +109,7 @@ std::string render_report(const ReportData& d) {
     std::vector<Series> ss;
     for (std::size_t i = 0; i < d.names.size(); ++i) {
       if (!(static_cast<Eigen::Index>(i) < d.spec.size() && d.spec[static_cast<Eigen::Index>(i)] > 0)) continue;
-      Series s{d.names[i], kColors[ss.size() % 10], {}, false};
+      Series s{d.names[i], io::chart_color(ss.size()), {}, false};
       for (std::size_t k = 0; k < d.sigma_hist.size() && k < d.sigma_t_s.size(); ++k)
         if (static_cast<Eigen::Index>(i) < d.sigma_hist[k].size())
           s.pts.push_back({d.sigma_t_s[k], d.sigma_hist[k][static_cast<Eigen::Index>(i)] / d.spec[static_cast<Eigen::Index>(i)]});

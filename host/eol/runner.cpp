@@ -1,3 +1,4 @@
+#include "host/io/campaign_file.h"
 #include "host/eol/runner.h"
 
 #include <chrono>
@@ -6,6 +7,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "firmware/common/crc32.h"
@@ -17,8 +19,9 @@
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/records/store.h"
-#include "host/sim/earth.h"
-#include "host/sim/table.h"
+#include "host/physics/earth.h"
+#include "host/physics/table.h"
+#include "host/solver/consider.h"
 #include "host/solver/fixture.h"
 #include "host/solver/sha256.h"
 
@@ -47,30 +50,30 @@ auto peer(const std::string& what, F&& f) -> decltype(f()) {
   }
 }
 
-sim::TableGeometry geometry_of(const sim::Campaign& c) {
+physics::TableGeometry geometry_of(const physics::Campaign& c) {
   // See the eol -> sim request: mount_rotation_deg is the IMU's attitude in the platform frame.
-  sim::TableGeometry g;
+  physics::TableGeometry g;
   g.n_axes = static_cast<int>(c.axes.size());
   for (std::size_t i = 0; i < c.axes.size() && i < 3; ++i) {
     g.axes[i].name = c.axes[i].name;
-    g.axes[i].axis_nominal = sim::axis_from_name(c.axes[i].axis);
+    g.axes[i].axis_nominal = physics::axis_from_name(c.axes[i].axis);
   }
   g.mount.C_imu_plat =
-      sim::rotation_zyx_deg(c.mount_rotation_deg[0], c.mount_rotation_deg[1], c.mount_rotation_deg[2]).transpose();
+      physics::rotation_zyx_deg(c.mount_rotation_deg[0], c.mount_rotation_deg[1], c.mount_rotation_deg[2]).transpose();
   g.mount.lever_arm_m = Eigen::Vector3d(c.lever_arm_m[0], c.lever_arm_m[1], c.lever_arm_m[2]);
   return g;
 }
 
 struct Kin {
-  sim::TableGeometry geom;
+  physics::TableGeometry geom;
   Eigen::Vector3d g_ned, wie_ned;
-  sim::ImuKinematics at(const std::array<double, 3>& angle_deg, const std::array<double, 3>& rate_dps) const {
-    sim::TableState st;
+  physics::ImuKinematics at(const std::array<double, 3>& angle_deg, const std::array<double, 3>& rate_dps) const {
+    physics::TableState st;
     for (int i = 0; i < 3; ++i) {
       st.angle_rad[static_cast<std::size_t>(i)] = angle_deg[static_cast<std::size_t>(i)] * kDeg;
       st.rate_rad_s[static_cast<std::size_t>(i)] = rate_dps[static_cast<std::size_t>(i)] * kDeg;
     }
-    return sim::table_kinematics(geom, st, g_ned, wie_ned);
+    return physics::table_kinematics(geom, st, g_ned, wie_ned);
   }
 };
 
@@ -94,7 +97,7 @@ std::string file_sha(const std::string& p) { return solver::sha256_file_hex(p); 
 struct StepInfo {
   int phase = 0, step = 0;
   std::string key, label;
-  sim::CampaignStep::Kind kind = sim::CampaignStep::Kind::kPosition;
+  physics::CampaignStep::Kind kind = physics::CampaignStep::Kind::kPosition;
   std::array<double, 3> position_deg{};  // the table position during the dwell (for rates: the start)
   std::array<double, 3> rate_dps{};
   double dwell_s = 0.0;
@@ -133,9 +136,9 @@ RunResult Runner::run() {
   if (opt_.campaign_path.empty() || opt_.station_path.empty() || opt_.serial.empty())
     throw std::invalid_argument("--campaign, --station and --serial are required");
 
-  sim::Campaign camp;
+  physics::Campaign camp;
   try {
-    camp = sim::load_campaign(opt_.campaign_path);
+    camp = io::load_campaign(opt_.campaign_path);
   } catch (const std::exception& e) {
     throw std::invalid_argument(std::string("campaign: ") + e.what());
   }
@@ -148,6 +151,16 @@ RunResult Runner::run() {
   } catch (const std::exception& e) {
     throw std::invalid_argument(std::string("model: ") + e.what());
   }
+  // The fixture tolerance is checked against the campaign's table now, not after hours of collection.
+  std::optional<solver::FixtureTolerance> tolerance;
+  if (!st.fixture_tolerance.is_null()) {
+    try {
+      tolerance = solver::fixture_tolerance_from_json(st.fixture_tolerance, static_cast<int>(camp.axes.size()),
+                                                      "station " + opt_.station_path);
+    } catch (const solver::SolverError& e) {
+      throw std::invalid_argument(e.what());
+    }
+  }
   const std::string campaign_sha = file_sha(opt_.campaign_path);
   const std::string station_sha = file_sha(opt_.station_path);
   std::string db = !opt_.db.empty() ? opt_.db : st.db;
@@ -157,20 +170,20 @@ RunResult Runner::run() {
   // ---- the schedule ---------------------------------------------------------------------------
   Kin kin;
   kin.geom = geometry_of(camp);
-  sim::Site site{camp.latitude_deg, camp.height_m};
-  kin.g_ned = sim::gravity_ned(site);
-  kin.wie_ned = sim::earth_rate_ned(site);
+  physics::Site site{camp.latitude_deg, camp.height_m};
+  kin.g_ned = physics::gravity_ned(site);
+  kin.wie_ned = physics::earth_rate_ned(site);
   std::vector<std::vector<StepInfo>> plan(camp.phases.size());
   int total_steps = 0;
   for (std::size_t p = 0; p < camp.phases.size(); ++p) {
     const auto& ph = camp.phases[p];
     std::array<double, 3> pos{};
-    if (ph.kind == sim::CampaignPhase::Kind::kRamp) {
+    if (ph.kind == physics::CampaignPhase::Kind::kRamp) {
       StepInfo si;
       si.phase = static_cast<int>(p);
       si.key = step_key(si.phase, 0);
       si.label = ph.label.empty() ? "ramp" : ph.label;
-      si.kind = sim::CampaignStep::Kind::kSoak;
+      si.kind = physics::CampaignStep::Kind::kSoak;
       si.dwell_s = 0;  // until the chamber reaches the setpoint
       plan[p].push_back(si);
       ++total_steps;
@@ -186,13 +199,13 @@ RunResult Runner::run() {
       si.kind = cs.kind;
       si.dwell_s = cs.dwell_s;
       switch (cs.kind) {
-        case sim::CampaignStep::Kind::kPosition: pos = cs.position_deg; si.position_deg = pos; break;
-        case sim::CampaignStep::Kind::kRate:
+        case physics::CampaignStep::Kind::kPosition: pos = cs.position_deg; si.position_deg = pos; break;
+        case physics::CampaignStep::Kind::kRate:
           si.position_deg = pos;
           si.rate_dps = cs.rate_dps;
           si.accel_ok = is_vertical_rotation(kin, pos, cs.rate_dps);
           break;
-        case sim::CampaignStep::Kind::kSoak: si.position_deg = pos; break;
+        case physics::CampaignStep::Kind::kSoak: si.position_deg = pos; break;
         default:
           throw std::invalid_argument("campaign " + opt_.campaign_path + ": phases[" + std::to_string(p) + "].steps[" +
                                       std::to_string(s) + "]: step kind not supported on a station (only position, "
@@ -236,7 +249,10 @@ RunResult Runner::run() {
   meta.gyro_lsb_rad_s = info.gyro_lsb_rad_s;
   meta.latitude_deg = camp.latitude_deg;
   meta.height_m = camp.height_m;
-  meta.gravity_mps2 = sim::normal_gravity_mps2(site);
+  meta.gravity_mps2 = physics::normal_gravity_mps2(site);
+  // The reported table angles and rates go into every row: the consider analysis (honest σ) re-runs the
+  // table kinematics on them with the fixture's errors.
+  meta.table_axes = static_cast<int>(camp.axes.size());
   meta.set("source", "imuforge-run");
   meta.set("campaign", camp.name);
   meta.set("station", st.name);
@@ -423,9 +439,9 @@ RunResult Runner::run() {
   // Collects one step's segment, makes it safe, folds it into the tracker.
   auto collect = [&](const StepInfo& si, const std::string& seg_name, bool calibration,
                      std::vector<io::LogRow>* rows_out, std::vector<ImuSample>* raw_out, double dwell_override) {
-    if (si.kind == sim::CampaignStep::Kind::kPosition) {
+    if (si.kind == physics::CampaignStep::Kind::kPosition) {
       peer("rate table command", [&] { bench_.command_rate({0, 0, 0}); bench_.command_position(si.position_deg); return 0; });
-    } else if (si.kind == sim::CampaignStep::Kind::kRate) {
+    } else if (si.kind == physics::CampaignStep::Kind::kRate) {
       // The axes that do not turn must hold the step's start position (it decides which IMU axis the
       // rotation is about). Steps may run out of file order (early stop), so unless the table is already
       // turning from this same start position (CW then CCW), go there first.
@@ -435,7 +451,7 @@ RunResult Runner::run() {
       }
       peer("rate table command", [&] { bench_.command_rate(si.rate_dps); return 0; });
     }
-    rotating = si.kind == sim::CampaignStep::Kind::kRate;
+    rotating = si.kind == physics::CampaignStep::Kind::kRate;
     rotating_from = si.position_deg;
     TableReading r0 = wait_table("reaching " + si.label);
     const double t_read = bench_.time_s();  // fixture time of r0 (one Modbus round trip later)
@@ -452,10 +468,10 @@ RunResult Runner::run() {
           t_first = s.t_s;
           // Sensor clock -> fixture clock, so a rate run's reference angle follows the table's phase.
           // Only rate runs need it (f_ref of a static dwell does not depend on time).
-          if (si.kind == sim::CampaignStep::Kind::kRate) sensor_to_fixture = bench_.time_s() - s.t_s;
+          if (si.kind == physics::CampaignStep::Kind::kRate) sensor_to_fixture = bench_.time_s() - s.t_s;
         }
         double el = s.t_s - t_first;
-        double dt_table = si.kind == sim::CampaignStep::Kind::kRate ? s.t_s + sensor_to_fixture - t_read : 0.0;
+        double dt_table = si.kind == physics::CampaignStep::Kind::kRate ? s.t_s + sensor_to_fixture - t_read : 0.0;
         std::array<double, 3> ang = r0.angle_deg;
         for (int i = 0; i < 3; ++i) ang[static_cast<std::size_t>(i)] += r0.rate_dps[static_cast<std::size_t>(i)] * dt_table;
         auto k = kin.at(ang, r0.rate_dps);
@@ -470,6 +486,10 @@ RunResult Runner::run() {
           row.w_ref[j] = k.w_rad_s[j];
         }
         for (int j = 0; j < 6; ++j) row.raw[j] = s.raw[j];
+        for (int a = 0; a < meta.table_axes; ++a) {
+          row.table_angle_rad[a] = ang[static_cast<std::size_t>(a)] * kDeg;
+          row.table_rate_rad_s[a] = r0.rate_dps[static_cast<std::size_t>(a)] * kDeg;
+        }
         w.write(row);
         rows.push_back(row);
         if (raw_out) raw_out->push_back(s);
@@ -539,7 +559,7 @@ RunResult Runner::run() {
         early_stopped = true;
         break;
       }
-      if (ph.kind == sim::CampaignPhase::Kind::kRamp) {
+      if (ph.kind == physics::CampaignPhase::Kind::kRamp) {
         const StepInfo& si = plan[p][0];
         if (!done.count(si.key)) {
           peer("chamber", [&] { bench_.set_chamber(ph.setpoint_C, ph.rate_C_per_min); return 0; });
@@ -561,7 +581,7 @@ RunResult Runner::run() {
         // Later plateaus: the same step indices (campaigns repeat their step list per plateau).
         std::vector<std::size_t> later;
         for (std::size_t q = p + 1; q < camp.phases.size(); ++q)
-          if (camp.phases[q].kind == sim::CampaignPhase::Kind::kPlateau) later.push_back(q);
+          if (camp.phases[q].kind == physics::CampaignPhase::Kind::kPlateau) later.push_back(q);
         auto projected = [&](const std::vector<int>& pat) {
           Eigen::MatrixXd h = tracker.information();
           for (std::size_t q : later)
@@ -638,6 +658,9 @@ RunResult Runner::run() {
   const solver::Estimate recursive = tracker.estimate();
   solver::Estimate est = recursive;
   std::string solve_note = "srif";
+  Eigen::VectorXd sigma_noise;  // noise-only σ when the fixture tolerance widened est's covariance
+  json fixture_section = solver::fixture_tolerance_not_stated();
+  std::string consider_error;
   try {
     io::LogReader lr(log_path);
     solver::FixtureAccumulator acc(spec, lr.meta());
@@ -653,6 +676,16 @@ RunResult Runner::run() {
     if (sol.estimate.names == est.names) {
       est = sol.estimate;
       solve_note = "batch fixture mode (host/solver)";
+      if (tolerance) {
+        try {
+          const solver::ConsiderResult cr = solver::consider_fixture_tolerance(lr, spec, camp, est, noise, *tolerance);
+          fixture_section = solver::apply_consider(est, cr, *tolerance, &sigma_noise);
+        } catch (const solver::SolverError& e) {
+          // σ without the stated fixture would claim a precision the station does not have: no pass.
+          fixture_section = {{"stated", true}, {"error", e.what()}};
+          consider_error = std::string("fixture tolerance: ") + e.what();
+        }
+      }
     } else {
       solve_note = "srif (batch names differ: per-plateau model?)";
     }
@@ -670,10 +703,14 @@ RunResult Runner::run() {
   {
     json cal;
     cal["parameters"] = json::array();
-    for (int i = 0; i < n; ++i)
-      cal["parameters"].push_back({{"name", est.names[static_cast<std::size_t>(i)]},
-                                   {"value", std::isfinite(est.value[i]) ? est.value[i] : 0.0},
-                                   {"sigma", std::isfinite(sig[i]) ? sig[i] : -1.0}});
+    for (int i = 0; i < n; ++i) {
+      json p = {{"name", est.names[static_cast<std::size_t>(i)]},
+                {"value", std::isfinite(est.value[i]) ? est.value[i] : 0.0},
+                {"sigma", std::isfinite(sig[i]) ? sig[i] : -1.0}};
+      if (sigma_noise.size() == n) p["sigma_noise"] = sigma_noise[i];
+      cal["parameters"].push_back(p);
+    }
+    cal["fixture_tolerance"] = fixture_section;
     if (solvable) {
       json cov = json::array();
       for (int i = 0; i < n; ++i) {
@@ -695,6 +732,7 @@ RunResult Runner::run() {
     std::ofstream(out / "cal.json") << cal.dump(2) << "\n";
   }
   if (!solvable) extra_reasons.push_back("solve: some parameters are not observable from the collected segments");
+  if (!consider_error.empty()) extra_reasons.push_back(consider_error);
 
   std::vector<std::uint8_t> blob, readback;
   std::uint32_t crc = 0;
@@ -739,7 +777,7 @@ RunResult Runner::run() {
       si.key = key;
       si.label = vp.label;
       bool is_rate = vp.rate_dps[0] != 0 || vp.rate_dps[1] != 0 || vp.rate_dps[2] != 0;
-      si.kind = is_rate ? sim::CampaignStep::Kind::kRate : sim::CampaignStep::Kind::kPosition;
+      si.kind = is_rate ? physics::CampaignStep::Kind::kRate : physics::CampaignStep::Kind::kPosition;
       si.position_deg = vp.position_deg;
       si.rate_dps = vp.rate_dps;
       si.dwell_s = vp.dwell_s;

@@ -13,7 +13,7 @@
 #include "host/eol/station.h"
 #include "host/eol/tracker.h"
 #include "host/records/record.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 
 namespace imuforge::eol {
 

@@ -83,6 +83,11 @@ StationConfig station_from_json(const nlohmann::json& j, const std::string& dir)
     s.settle_timeout_s = get_or<double>(t, "temp_timeout_s", s.settle_timeout_s, "settle.");
     s.table_timeout_s = get_or<double>(t, "table_timeout_s", s.table_timeout_s, "settle.");
   }
+  if (j.contains("fixture_tolerance")) {
+    if (!j["fixture_tolerance"].is_object())
+      throw StationError("station: fixture_tolerance must be an object {\"axes\": .., \"mount_sigma_deg\": ..}");
+    s.fixture_tolerance = j["fixture_tolerance"];
+  }
   s.early_stop = get_or<bool>(j, "early_stop", s.early_stop, "");
   s.early_stop_sigma_fraction = get_or<double>(j, "early_stop_sigma_fraction", s.early_stop_sigma_fraction, "");
   if (!(s.early_stop_sigma_fraction > 0) || s.early_stop_sigma_fraction > 1)

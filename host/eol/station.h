@@ -64,6 +64,10 @@ struct StationConfig {
   double verify_gyro_rad_s = 0.0;
   std::vector<VerificationPose> verification;
   std::string hmac_key_hex;              // device table key ("" = the test/demo key for the serial)
+  // The fixture's tolerance (1σ: table axis tilts and zeros, the IMU's rotation in its nest), the format
+  // of host/solver/consider.h; null when not stated. The batch solve carries it into every σ (honest σ),
+  // and the σ limits and the report use that σ.
+  nlohmann::json fixture_tolerance;
 
   // The limit that applies to a parameter: exact name first, else the longest matching prefix.
   // Returns nullptr if none.

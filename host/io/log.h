@@ -74,7 +74,7 @@ struct LogRow {
   double w_ref[3] = {0, 0, 0};  // rad/s, IMU nominal frame (meaningful only if has_ref)
   std::int32_t raw[6] = {0, 0, 0, 0, 0, 0};  // ax ay az gx gy gz, signed counts
   // Table axes as REPORTED by the fixture (innermost first), rad and rad/s; NaN when not logged.
-  // The solver's fixture+errors mode re-runs sim::table_kinematics() on these with nuisance errors.
+  // The solver's fixture+errors mode re-runs physics::table_kinematics() on these with nuisance errors.
   double table_angle_rad[3] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
                                std::numeric_limits<double>::quiet_NaN()};
   double table_rate_rad_s[3] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),

@@ -5,11 +5,12 @@
 
 #include <CLI/CLI.hpp>
 
+#include "host/io/campaign_file.h"
 #include "host/app/command.h"
 #include "host/io/staged_file.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 #include "host/sim/simulator.h"
 
 namespace {
@@ -39,10 +40,10 @@ int run_simulate(int argc, char** argv) {
     return app.exit(e) == 0 ? imuforge::app::kExitOk : imuforge::app::kExitUsage;
   }
   using namespace imuforge;
-  sim::Campaign campaign;
+  physics::Campaign campaign;
   model::SensorModel sensor;
   try {
-    campaign = sim::load_campaign(campaign_path);
+    campaign = io::load_campaign(campaign_path);
     sensor = model::load_sensor_model(sensor_path);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge simulate: %s\n", e.what());

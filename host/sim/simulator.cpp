@@ -4,11 +4,14 @@
 #include <stdexcept>
 
 #include "host/model/measure.h"
-#include "host/sim/earth.h"
+#include "host/physics/earth.h"
 #include "host/sim/noise.h"
-#include "host/sim/timeline.h"
+#include "host/sim/sensor_chain.h"
+#include "host/physics/timeline.h"
 
 namespace imuforge::sim {
+
+using namespace physics;  // the simulator samples the physics part throughout
 
 using model::Effect;
 using model::Sensor;
@@ -33,8 +36,8 @@ double jnum(const json& o, const char* k, const std::string& where) {
 
 SimExtras parse_extras(const Campaign& c, bool use_errors) {
   SimExtras x;
-  const json& s = c.simulation;
-  if (s.is_null()) return x;
+  if (c.simulation_json.empty()) return x;
+  const json s = json::parse(c.simulation_json);
   if (!s.is_object()) throw std::invalid_argument("simulation: expected an object");
   for (auto it = s.begin(); it != s.end(); ++it) {
     const std::string& k = it.key();
@@ -70,43 +73,6 @@ SimExtras parse_extras(const Campaign& c, bool use_errors) {
     }
   }
   return x;
-}
-
-// Output stage: quantization step, saturation, then LSB rounding and the word clamp.
-struct OutStage {
-  double q[3] = {0, 0, 0};
-  double sat[3] = {0, 0, 0};
-  double inv_lsb = 1, lo = 0, hi = 0;
-};
-
-OutStage make_out(const model::SensorModel& m, Sensor s) {
-  OutStage o;
-  const auto& t = m.triad(s);
-  o.inv_lsb = 1.0 / t.lsb;
-  double word = std::ldexp(1.0, t.bits - 1);
-  o.lo = -word;
-  o.hi = word - 1;
-  if (t.range > 0) {
-    o.lo = std::max(o.lo, std::floor(-t.range / t.lsb));
-    o.hi = std::min(o.hi, std::ceil(t.range / t.lsb));
-  }
-  const auto p = m.effective_params();
-  auto ids_q = model::effect_params(s, Effect::kQuantization);
-  auto ids_s = model::effect_params(s, Effect::kSaturation);
-  for (int j = 0; j < 3; ++j) {
-    o.q[j] = p[ids_q[static_cast<std::size_t>(j)]];
-    o.sat[j] = p[ids_s[static_cast<std::size_t>(j)]];
-  }
-  return o;
-}
-
-inline std::int32_t to_counts(const OutStage& o, int j, double y) {
-  if (o.q[j] > 0) y = o.q[j] * std::nearbyint(y / o.q[j]);
-  if (o.sat[j] > 0) y = std::clamp(y, -o.sat[j], o.sat[j]);
-  double c = std::nearbyint(y * o.inv_lsb);
-  if (!(c >= o.lo)) c = o.lo;  // NaN also lands here: never an undefined cast
-  if (c > o.hi) c = o.hi;
-  return static_cast<std::int32_t>(c);
 }
 
 }  // namespace
@@ -150,33 +116,13 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
   const Site site{c.latitude_deg, c.height_m};
   const Eigen::Vector3d g_ned = gravity_ned(site), wie_ned = earth_rate_ned(site);
 
-  // Independent streams so switching one process on does not change the others' realisations.
-  Rng rng_turn_on(opt.seed * 0x9E3779B97F4A7C15ULL + 1), rng_fix(opt.seed * 0x9E3779B97F4A7C15ULL + 2);
-  Rng rng_axis[6] = {Rng(opt.seed * 0x9E3779B97F4A7C15ULL + 11), Rng(opt.seed * 0x9E3779B97F4A7C15ULL + 12),
-                     Rng(opt.seed * 0x9E3779B97F4A7C15ULL + 13), Rng(opt.seed * 0x9E3779B97F4A7C15ULL + 14),
-                     Rng(opt.seed * 0x9E3779B97F4A7C15ULL + 15), Rng(opt.seed * 0x9E3779B97F4A7C15ULL + 16)};
-
+  // Turn-on bias and noise streams live in the sensor chain (shared with the vehicle simulator); the
+  // fixture's encoder and temperature noise have a stream of their own.
+  Rng rng_fix(opt.seed * 0x9E3779B97F4A7C15ULL + 2);
+  SensorChain chain(m, dt, opt.seed);
   const model::ParamSet P = m.effective_params();
-  const model::CompiledTriad tri[2] = {model::compile(m, Sensor::kAccel), model::compile(m, Sensor::kGyro)};
-  const OutStage outs[2] = {make_out(m, Sensor::kAccel), make_out(m, Sensor::kGyro)};
-  AxisNoise noise[6];
-  double turn_on[6] = {};
-  json realised = json::object();
-  for (int s = 0; s < 2; ++s) {
-    Sensor sn = static_cast<Sensor>(s);
-    auto wn = model::effect_params(sn, Effect::kWhiteNoise);
-    auto bi = model::effect_params(sn, Effect::kBiasInstability);
-    auto rw = model::effect_params(sn, Effect::kRateRandomWalk);
-    auto tb = model::effect_params(sn, Effect::kTurnOnBias);
-    const double tau = P[bi[3]];
-    for (std::size_t j = 0; j < 3; ++j) {
-      noise[3 * s + static_cast<int>(j)].configure(P[wn[j]], P[bi[j]], tau, P[rw[j]], dt,
-                                                   rng_axis[3 * s + static_cast<int>(j)]);
-      turn_on[3 * s + static_cast<int>(j)] = P[tb[j]] * rng_turn_on.normal();
-      if (m.on(sn, Effect::kTurnOnBias))
-        realised[model::param_info(tb[j]).name] = turn_on[3 * s + static_cast<int>(j)];
-    }
-  }
+  const model::CompiledTriad tri[2] = {chain.triad(Sensor::kAccel), chain.triad(Sensor::kGyro)};
+  json realised = chain.realised();
   const double lat_s[2] = {tri[0].latency_s, tri[1].latency_s};
   const double ppm[2] = {tri[0].ppm * 1e-6, tri[1].ppm * 1e-6};
   const bool shifted[2] = {lat_s[0] != 0 || ppm[0] != 0, lat_s[1] != 0 || ppm[1] != 0};
@@ -237,11 +183,7 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
       in.Tdot_C_s = Tdot;
       in.d = d;
       in.t_s = t;
-      const Eigen::Vector3d y = model::measure(tri[s], in, mopt);
-      for (int j = 0; j < 3; ++j) {
-        const int ch = 3 * s + j;
-        row.raw[ch] = to_counts(outs[s], j, y[j] + turn_on[ch] + noise[ch].step(rng_axis[ch]));
-      }
+      chain.counts(static_cast<Sensor>(s), model::measure(tri[s], in, mopt), row.raw + 3 * s);
     }
     row.t_s = t;
     row.segment = ms.entry->segment;

@@ -9,8 +9,8 @@
 
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
-#include "host/sim/table.h"
+#include "host/physics/campaign.h"
+#include "host/physics/table.h"
 
 namespace imuforge::sim {
 
@@ -32,13 +32,13 @@ struct SimSummary {
 
 // Runs the whole campaign, writing every sample to `out` (already opened by the caller with
 // make_log_meta()). Deterministic: same inputs and seed -> bit-identical rows.
-SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOptions& opt, io::LogWriter& out);
+SimSummary simulate(const physics::Campaign& c, const model::SensorModel& m, const SimOptions& opt, io::LogWriter& out);
 
 // The metadata the simulator writes (sample rate, LSBs, site, gravity, serial, campaign/sensor names).
-io::LogMeta make_log_meta(const Campaign& c, const model::SensorModel& m, const SimOptions& opt);
+io::LogMeta make_log_meta(const physics::Campaign& c, const model::SensorModel& m, const SimOptions& opt);
 
 // Callback flavour (no file): each row is handed to sink (used by the bench simulator / tests).
-SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOptions& opt,
+SimSummary simulate(const physics::Campaign& c, const model::SensorModel& m, const SimOptions& opt,
                     const std::function<void(const io::LogRow&)>& sink);
 
 }  // namespace imuforge::sim

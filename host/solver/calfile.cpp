@@ -22,8 +22,12 @@ nlohmann::json calibration_to_json(const CalibrationResult& r) {
   const long n = static_cast<long>(e.names.size());
   const Eigen::VectorXd sig = r.has_covariance ? e.sigma() : Eigen::VectorXd::Constant(n, NAN);
   json params = json::array();
-  for (long i = 0; i < n; ++i)
-    params.push_back({{"name", e.names[static_cast<size_t>(i)]}, {"value", e.value[i]}, {"sigma", num(sig[i])}});
+  const bool with_noise = r.has_covariance && r.sigma_noise.size() == n;
+  for (long i = 0; i < n; ++i) {
+    json p = {{"name", e.names[static_cast<size_t>(i)]}, {"value", e.value[i]}, {"sigma", num(sig[i])}};
+    if (with_noise) p["sigma_noise"] = num(r.sigma_noise[i]);
+    params.push_back(p);
+  }
   j["parameters"] = params;
   if (r.has_covariance) {
     json cov = json::array(), cor = json::array();

@@ -20,6 +20,9 @@ struct CalibrationResult {
   std::string method = "inverse";    // inverse | traditional
   Estimate estimate;                 // covariance empty for the traditional method
   bool has_covariance = true;
+  // σ from the sensor noise alone, when estimate.covariance also carries the fixture tolerance
+  // (consider.h); empty otherwise. Written as each parameter's "sigma_noise".
+  Eigen::VectorXd sigma_noise;
   Observability observability;
   bool has_residuals = true;
   Sigma6 residual_rms{};             // per channel, SI

@@ -10,10 +10,12 @@
 #include <string>
 
 #include "host/app/command.h"
+#include "host/io/campaign_file.h"
 #include "host/io/input_error.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/solver/calfile.h"
+#include "host/solver/consider.h"
 #include "host/solver/fixture.h"
 #include "host/solver/fixture_errors.h"
 #include "host/solver/online.h"
@@ -81,14 +83,52 @@ Sigma6 noise_from_first_dwell(io::LogReader& log) {
   return s;
 }
 
-void print_estimate(const Estimate& e, bool with_sigma) {
+// sigma_noise (optional): the noise-only σ, printed beside the honest one.
+void print_estimate(const Estimate& e, bool with_sigma, const Eigen::VectorXd& sigma_noise = {}) {
   const Eigen::VectorXd s = with_sigma ? e.sigma() : Eigen::VectorXd();
+  if (with_sigma && sigma_noise.size() == s.size() && s.size() > 0)
+    std::printf("  %-28s %13s    %-9s  %s\n", "parameter", "value", "σ", "(σ noise only)");
   for (size_t i = 0; i < e.names.size(); ++i) {
-    if (with_sigma)
-      std::printf("  %-28s % .6e  ± %.2e\n", e.names[i].c_str(), e.value[static_cast<long>(i)], s[static_cast<long>(i)]);
+    const long k = static_cast<long>(i);
+    if (with_sigma && sigma_noise.size() == s.size())
+      std::printf("  %-28s % .6e  ± %.2e  (%.2e)\n", e.names[i].c_str(), e.value[k], s[k], sigma_noise[k]);
+    else if (with_sigma)
+      std::printf("  %-28s % .6e  ± %.2e\n", e.names[i].c_str(), e.value[k], s[k]);
     else
       std::printf("  %-28s % .6e\n", e.names[i].c_str(), e.value[static_cast<long>(i)]);
   }
+}
+
+// Honest σ (consider.h): widens res.estimate by the fixture tolerance the model states, or records that
+// σ covers the noise only.
+void apply_fixture_tolerance(CalibrationResult& res, io::LogReader& log, const model::ModelSpec& spec, const Args& a,
+                             const Sigma6& sigma) {
+  const std::string where = "model '" + a.model + "'";
+  if (spec.extra.find("fixture_tolerance") == spec.extra.end()) {
+    res.extra["fixture_tolerance"] = fixture_tolerance_not_stated();
+    if (log.meta().table_axes > 0)
+      std::printf("note: %s states no \"fixture_tolerance\": σ below covers the sensor noise only, not the fixture's "
+                  "tilts, zeros and mount (docs/calibration.md, 'Honest σ')\n", where.c_str());
+    return;
+  }
+  if (a.campaign.empty())
+    throw SolverError(where + " states \"fixture_tolerance\": pass --campaign C.json (the table geometry) so the solver "
+                      "can carry the tolerance into σ");
+  physics::Campaign c;
+  try {
+    c = io::load_campaign(a.campaign);
+  } catch (const std::exception& e) {
+    throw SolverError("campaign '" + a.campaign + "': " + e.what());
+  }
+  const auto tol = fixture_tolerance_of(spec, static_cast<int>(c.axes.size()), where);
+  ConsiderResult cr;
+  try {
+    cr = consider_fixture_tolerance(log, spec, c, res.estimate, sigma, *tol);
+  } catch (const SolverError& e) {
+    throw SolverError(std::string("fixture_tolerance: ") + e.what());
+  }
+  res.extra["fixture_tolerance"] = apply_consider(res.estimate, cr, *tol, &res.sigma_noise);
+  std::printf("fixture tolerance: %zu fixture parameters considered; σ covers noise and fixture\n", cr.considered.size());
 }
 
 void write_json(const std::string& path, const nlohmann::json& j) {
@@ -113,7 +153,7 @@ int run_solve(int argc, char** argv) {
       ->check(CLI::IsMember({"static", "model"}));
   app.add_flag("--online", a.online, "recursive estimation segment by segment (fixture mode)");
   app.add_option("--stop-sigma", a.stop_sigma, "σ spec (docs/examples/spec-sigma.json): report when every σ meets it");
-  app.add_option("--campaign", a.campaign, "campaign file: table geometry for fixture+errors");
+  app.add_option("--campaign", a.campaign, "campaign file: table geometry for fixture+errors and for the model's fixture_tolerance");
   app.add_option("--rotation-check", a.rotation_check,
                  "reference-free: a log with one known rotation; prints the integrated angle before/after");
   app.add_option("--static-window", a.static_window_s, "reference-free: variance window for static detection, s")
@@ -222,7 +262,8 @@ int run_solve(int argc, char** argv) {
     if (!r.fixed.empty())
       std::printf("fixture+errors: fixed at 0 (inseparable from others): %s\n", nlohmann::json(r.fixed).dump().c_str());
     std::printf("fixture+errors: misalignment frame: %s\n", frame);
-    print_estimate(res.estimate, true);
+    apply_fixture_tolerance(res, log, spec, a, r.noise_sigma);
+    print_estimate(res.estimate, true, res.sigma_noise);
   } else {
     // fixture (inverse or traditional), optionally online
     Sigma6 sigma{};
@@ -343,7 +384,8 @@ int run_solve(int argc, char** argv) {
       for (int c = 0; c < kNumChannels; ++c)
         std::printf("  %-8s noise σ %.3e  residual RMS %.3e\n", channel_name(c), sol.noise_sigma[static_cast<size_t>(c)],
                     sol.residual_rms[static_cast<size_t>(c)]);
-      print_estimate(sol.estimate, true);
+      apply_fixture_tolerance(res, log, spec, a, sol.noise_sigma);
+      print_estimate(res.estimate, true, res.sigma_noise);
     }
   }
 

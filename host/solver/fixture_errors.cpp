@@ -1,3 +1,4 @@
+#include "host/io/campaign_file.h"
 #include "host/solver/fixture_errors.h"
 
 #include <algorithm>
@@ -7,9 +8,9 @@
 #include <optional>
 
 #include "host/model/measure.h"
-#include "host/sim/earth.h"
-#include "host/sim/table.h"
-#include "host/sim/timeline.h"
+#include "host/physics/earth.h"
+#include "host/physics/table.h"
+#include "host/physics/timeline.h"
 
 namespace imuforge::solver {
 
@@ -23,8 +24,21 @@ struct Nuisance {
   int what;   // 0 tilt_a, 1 tilt_b, 2 zero; mount: component 0..2
 };
 
-sim::TableGeometry apply(const sim::TableGeometry& nominal, const std::vector<Nuisance>& nu, const Eigen::VectorXd& eta) {
-  sim::TableGeometry g = nominal;
+// Every nuisance parameter of an n_axes table; the mount's three last.
+std::vector<Nuisance> all_nuisance(int n_axes) {
+  std::vector<Nuisance> nu;
+  for (int a = 0; a < n_axes; ++a) {
+    const std::string p = "fixture.axis" + std::to_string(a) + ".";
+    nu.push_back({p + "tilt_a", a, 0});
+    nu.push_back({p + "tilt_b", a, 1});
+    nu.push_back({p + "zero", a, 2});
+  }
+  for (int k = 0; k < 3; ++k) nu.push_back({std::string("fixture.mount.r") + "xyz"[k], -1, k});
+  return nu;
+}
+
+physics::TableGeometry apply(const physics::TableGeometry& nominal, const std::vector<Nuisance>& nu, const Eigen::VectorXd& eta) {
+  physics::TableGeometry g = nominal;
   for (size_t k = 0; k < nu.size(); ++k) {
     const Nuisance& n = nu[k];
     const double v = eta[static_cast<long>(k)];
@@ -40,7 +54,7 @@ sim::TableGeometry apply(const sim::TableGeometry& nominal, const std::vector<Nu
 
 class FixtureErrorsProblem : public NonlinearProblem {
  public:
-  FixtureErrorsProblem(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& c, std::vector<Nuisance> nu,
+  FixtureErrorsProblem(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& c, std::vector<Nuisance> nu,
                        const Sigma6& sigma)
       : log_(log), spec_(spec), nu_(std::move(nu)), sigma_(sigma) {
     ids_all_ = spec.parameters();
@@ -51,12 +65,12 @@ class FixtureErrorsProblem : public NonlinearProblem {
     }
     for (const auto& e : spec.effects)
       if (e.per_plateau) throw SolverError("fixture+errors mode: per-plateau parameters are not supported; use polynomials");
-    nominal_ = sim::geometry_from_campaign(c).nominal();
-    sim::Site site;
+    nominal_ = physics::geometry_from_campaign(c).nominal();
+    physics::Site site;
     site.latitude_deg = c.latitude_deg;
     site.height_m = c.height_m;
-    g_ned_ = sim::gravity_ned(site);
-    wie_ned_ = sim::earth_rate_ned(site);
+    g_ned_ = physics::gravity_ned(site);
+    wie_ned_ = physics::earth_rate_ned(site);
     for (model::ParamId id : ids_all_) has_temp_rate_ = has_temp_rate_ || model::param_info(id).effect == model::Effect::kTempRate;
     dTdt_window_s_ = dTdt_window_of(spec);
     lsb_[0] = log.meta().accel_lsb_mps2;
@@ -79,7 +93,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
                                         model::compile(ps, Sensor::kGyro, spec_.T_ref_C)};
     const Eigen::VectorXd eta = x.tail(nn);
     constexpr double h = 1e-7;  // rad: central differences on the kinematics
-    std::vector<sim::PreparedTable> tables;
+    std::vector<physics::PreparedTable> tables;
     tables.emplace_back(apply(nominal_, nu_, eta));
     for (int k = 0; k < nn; ++k)
       for (double sgn : {1.0, -1.0}) {
@@ -89,9 +103,9 @@ class FixtureErrorsProblem : public NonlinearProblem {
       }
     log_.rewind();
     model::HysteresisTracker hyst;
-    sim::TableState last{};
+    physics::TableState last{};
     bool have_last = false;
-    std::vector<sim::ImuKinematics> kin(tables.size());
+    std::vector<physics::ImuKinematics> kin(tables.size());
     Eigen::MatrixXd info = Eigen::MatrixXd::Zero(n, n);
     Eigen::VectorXd jrow(n);
     std::array<Eigen::Matrix<double, 3, Eigen::Dynamic>, 2> J;
@@ -105,7 +119,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
     auto process = [&](const io::LogRow& row, double Tdot_C_s) {
       const double d = hyst.update(row.temp_C);
       if (row.segment < 0 || !row.has_ref) return;
-      sim::TableState st{};
+      physics::TableState st{};
       bool ok = true;
       for (int a = 0; a < nominal_.n_axes; ++a) {
         st.angle_rad[static_cast<size_t>(a)] = row.table_angle_rad[a];
@@ -114,12 +128,12 @@ class FixtureErrorsProblem : public NonlinearProblem {
       }
       if (!ok) return;
       if (!have_last || st.angle_rad != last.angle_rad || st.rate_rad_s != last.rate_rad_s) {
-        for (size_t t = 0; t < tables.size(); ++t) kin[t] = sim::table_kinematics(tables[t], st, g_ned_, wie_ned_);
+        for (size_t t = 0; t < tables.size(); ++t) kin[t] = physics::table_kinematics(tables[t], st, g_ned_, wie_ned_);
         last = st;
         have_last = true;
       }
       const double T = std::isfinite(row.temp_C) ? row.temp_C : spec_.T_ref_C;
-      auto input = [&](const sim::ImuKinematics& k) {
+      auto input = [&](const physics::ImuKinematics& k) {
         model::MeasureInput in;
         in.f = k.f_mps2;
         in.w = k.w_rad_s;
@@ -175,7 +189,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
   std::vector<model::ParamId> ids_all_;
   std::array<std::vector<model::ParamId>, 2> ids_;
   std::array<std::vector<int>, 2> pos_;
-  sim::TableGeometry nominal_;
+  physics::TableGeometry nominal_;
   Eigen::Vector3d g_ned_, wie_ned_;
   double lsb_[2];
   bool has_temp_rate_ = false;
@@ -307,7 +321,7 @@ GaugeDecision choose_gauge(const Eigen::MatrixXd& info, const std::vector<std::s
 
 }  // namespace
 
-FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& c,
+FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& c,
                                          const FixtureErrorsOptions& opt) {
   // Pass 0: the plain fixture solution (initial model values) and the within-dwell noise.
   FixtureAccumulator acc(spec, log.meta());
@@ -316,16 +330,8 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
   while (log.next(row)) acc.add(row);
   acc.finish();
   const Sigma6 sigma = acc.static_noise_sigma();
-  std::vector<Nuisance> nu;
-  const int n_axes = static_cast<int>(c.axes.size());
-  for (int a = 0; a < n_axes; ++a) {
-    const std::string p = "fixture.axis" + std::to_string(a) + ".";
-    nu.push_back({p + "tilt_a", a, 0});
-    nu.push_back({p + "tilt_b", a, 1});
-    nu.push_back({p + "zero", a, 2});
-  }
-  if (opt.mount)
-    for (int k = 0; k < 3; ++k) nu.push_back({std::string("fixture.mount.r") + "xyz"[k], -1, k});
+  std::vector<Nuisance> nu = all_nuisance(static_cast<int>(c.axes.size()));
+  if (!opt.mount) nu.resize(nu.size() - 3);
   const int nm = static_cast<int>(spec.parameters().size());
   Eigen::VectorXd theta0 = Eigen::VectorXd::Zero(nm);
   try {
@@ -385,10 +391,33 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
   return res;
 }
 
+std::vector<std::string> fixture_nuisance_names(int n_axes) {
+  std::vector<std::string> names;
+  for (const Nuisance& n : all_nuisance(n_axes)) names.push_back(n.name);
+  return names;
+}
+
+Eigen::MatrixXd fixture_joint_information(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& c,
+                                          const std::vector<std::string>& nuisance, const Eigen::VectorXd& x,
+                                          const Sigma6& sigma) {
+  const std::vector<Nuisance> all = all_nuisance(static_cast<int>(c.axes.size()));
+  std::vector<Nuisance> nu;
+  for (const std::string& name : nuisance) {
+    auto it = std::find_if(all.begin(), all.end(), [&](const Nuisance& n) { return n.name == name; });
+    if (it == all.end()) throw SolverError("unknown fixture nuisance parameter '" + name + "'");
+    nu.push_back(*it);
+  }
+  FixtureErrorsProblem prob(log, spec, c, nu, sigma);
+  if (x.size() != prob.num_params()) throw SolverError("fixture_joint_information: x has the wrong size");
+  NormalEquations ne(prob.num_params());
+  prob.linearize(x, ne);
+  return ne.info;
+}
+
 FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const std::string& campaign_path) {
-  sim::Campaign c;
+  physics::Campaign c;
   try {
-    c = sim::load_campaign(campaign_path);
+    c = io::load_campaign(campaign_path);
   } catch (const std::exception& e) {
     throw SolverError("campaign '" + campaign_path + "': " + e.what());
   }

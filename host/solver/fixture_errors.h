@@ -1,7 +1,7 @@
 // Fixture+errors mode: the rate table's axis tilts and encoder zero offsets (and, on request, the IMU
 // mount rotation) are estimated as nuisance parameters together with the model, so an imprecise fixture
 // still calibrates. The reference is recomputed from the LOGGED (reported) table angles and rates with
-// sim::table_kinematics() — the simulator's own kinematics — for the current nuisance values.
+// physics::table_kinematics() — the simulator's own kinematics — for the current nuisance values.
 //
 // The problem is nonlinear in the nuisance parameters: Levenberg-Marquardt, each iteration one streaming
 // pass over the log (LogReader::rewind), memory independent of the log length. Per sample: one
@@ -27,7 +27,7 @@
 
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 #include "host/solver/fixture.h"
 
 namespace imuforge::solver {
@@ -59,8 +59,19 @@ struct FixtureErrorsResult {
   int iterations = 0;
 };
 
-FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const sim::Campaign& campaign,
+FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& campaign,
                                          const FixtureErrorsOptions& opt = {});
+
+// Every nuisance parameter of a table with n_axes axes, in the solver's order:
+// fixture.axis<i>.tilt_a|tilt_b|zero (innermost first), then fixture.mount.rx|ry|rz.
+std::vector<std::string> fixture_nuisance_names(int n_axes);
+// The information (model parameters in spec order, then `nuisance`, named as above) at x, weighted by
+// 1/sigma², from one streaming pass over the log: the same linearisation as the fixture+errors solve.
+// The consider analysis (consider.h) takes the model × nuisance block from it. Throws SolverError on an
+// unknown name, a per-plateau model or a log whose table columns do not match the campaign.
+Eigen::MatrixXd fixture_joint_information(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& campaign,
+                                          const std::vector<std::string>& nuisance, const Eigen::VectorXd& x,
+                                          const Sigma6& sigma);
 // Convenience for the command: loads the campaign; "fixture_nuisance": {"mount": false} in the model's
 // extra section keeps the mount rotation out of the nuisance set (it is in by default).
 FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const std::string& campaign_path);

@@ -8,7 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "host/model/catalog.h"
-#include "host/sim/earth.h"
+#include "host/physics/earth.h"
 
 namespace imuforge::solver {
 
@@ -172,10 +172,10 @@ RawRecording read_recording(io::LogReader& log) {
     rec.gravity_mps2 = m.gravity_mps2;
     rec.gravity_source = "log metadata";
   } else if (std::isfinite(m.latitude_deg)) {
-    sim::Site s;
+    physics::Site s;
     s.latitude_deg = m.latitude_deg;
     s.height_m = std::isfinite(m.height_m) ? m.height_m : 0.0;
-    rec.gravity_mps2 = sim::normal_gravity_mps2(s);
+    rec.gravity_mps2 = physics::normal_gravity_mps2(s);
     rec.gravity_source = "normal gravity at the log's latitude/height";
   } else {
     rec.gravity_mps2 = 9.80665;

@@ -35,15 +35,10 @@ struct TriadAt {
 };
 
 void check_expressible(const Estimate& e) {
-  for (const auto& n : e.names) {
-    const std::string base = n.substr(0, n.find('@'));
-    const bool ok = base.find(".bias.") != std::string::npos || base.find(".scale.") != std::string::npos ||
-                    base.find(".misalign.") != std::string::npos || base.find(".bias_temp.") != std::string::npos ||
-                    base.find(".scale_temp.") != std::string::npos || base.find(".misalign_temp.") != std::string::npos ||
-                    base.rfind("fixture.", 0) == 0;
-    if (!ok) throw SolverError("coefficient table v1 holds bias, scale, misalignment and their temperature dependence; "
-                               "it cannot express " + n);
-  }
+  for (const auto& n : e.names)
+    if (!table_expressible(n) || n.find(".g_sensitivity.") != std::string::npos)
+      throw SolverError("coefficient table v1 holds bias, scale, misalignment and their temperature dependence; "
+                        "it cannot express " + n);
 }
 
 // The triad's coefficients as polynomials in τ = T − T_ref (power 0..3), looked up by name once: the
@@ -51,6 +46,7 @@ void check_expressible(const Estimate& e) {
 struct TriadPoly {
   std::array<Eigen::Vector3d, 4> b;
   std::array<Eigen::Matrix3d, 4> M;
+  Eigen::Matrix3d G = Eigen::Matrix3d::Zero();  // gyro g-sensitivity (sensor model), no temperature term
   TriadAt at(double tau) const {
     TriadAt t;
     double tp = 1.0;
@@ -86,6 +82,8 @@ TriadPoly triad_poly(const Estimate& e, const std::string& s, int plateau) {
       t.M[0](j, k) = get(s + ".misalign." + c);
       for (int p = 1; p <= 3; ++p) t.M[static_cast<size_t>(p)](j, k) = get(s + ".misalign_temp." + c + ".t" + std::to_string(p));
     }
+    if (s == "gyro")
+      for (int k = 0; k < 3; ++k) t.G(j, k) = get(s + ".g_sensitivity." + std::string(1, kAx[j]) + kAx[k]);
   }
   return t;
 }
@@ -94,6 +92,34 @@ TriadAt triad_at(const Estimate& e, const std::string& s, double T_C, double T_r
   return triad_poly(e, s, plateau).at(T_C - T_ref_C);
 }
 }  // namespace
+
+bool table_expressible(const std::string& name) {
+  const std::string base = name.substr(0, name.find('@'));
+  for (const char* eff : {".bias.", ".scale.", ".misalign.", ".bias_temp.", ".scale_temp.", ".misalign_temp."})
+    if (base.find(eff) != std::string::npos) return true;
+  return base.rfind("fixture.", 0) == 0 || base.rfind("gyro.g_sensitivity.", 0) == 0;
+}
+
+table::TableSpec table_spec_from_estimate(const Estimate& e, double T_ref_C, const std::vector<double>& bps,
+                                          const std::vector<int>& bp_plateau) {
+  table::TableSpec spec;
+  spec.kind = table::SpecKind::kSensorModel;
+  const Eigen::Matrix3d G = triad_poly(e, "gyro", -1).G;
+  for (size_t i = 0; i < bps.size(); ++i) {
+    table::BreakpointSpec b;
+    b.temp_degC = bps[i];
+    const int pl = i < bp_plateau.size() ? bp_plateau[i] : -1;
+    const TriadAt a = triad_at(e, "accel", bps[i], T_ref_C, pl);
+    const TriadAt g = triad_at(e, "gyro", bps[i], T_ref_C, pl);
+    b.accel_M = a.M;
+    b.accel_b = a.b;
+    b.gyro_M = g.M;
+    b.gyro_b = g.b;
+    b.gyro_G_sensor = G;
+    spec.breakpoints.push_back(b);
+  }
+  return spec;
+}
 
 TableReport write_coefficient_table(const CalibrationResult& res, io::LogReader& log, const std::string& path,
                                     const std::string& serial) {
@@ -145,17 +171,9 @@ TableReport write_coefficient_table(const CalibrationResult& res, io::LogReader&
       bp_plateau.push_back(-1);
     }
   }
-  std::vector<TriadAt> ref_a, ref_g;
-  for (size_t i = 0; i < bps.size(); ++i) {
-    table::BreakpointSpec b;
-    b.temp_degC = bps[i];
-    const TriadAt a = triad_at(e, "accel", bps[i], res.T_ref_C, bp_plateau[i]);
-    const TriadAt g = triad_at(e, "gyro", bps[i], res.T_ref_C, bp_plateau[i]);
-    b.accel_M = a.M;
-    b.accel_b = a.b;
-    b.gyro_M = g.M;
-    b.gyro_b = g.b;
-    spec.breakpoints.push_back(b);
+  {
+    const table::TableSpec coeffs = table_spec_from_estimate(e, res.T_ref_C, bps, bp_plateau);
+    spec.breakpoints = coeffs.breakpoints;
   }
   std::vector<std::uint8_t> bytes;
   fw::Table tbl;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "host/io/campaign_file.h"
 #include "host/diagnosis/sources.h"
 #include "host/io/log.h"
 #include "tests/diagnosis/sim_helpers.h"
@@ -16,7 +17,7 @@ int main(int argc, char** argv) {
   const double fs_hz = 1000.0;
   // Repeat the rich campaign at several plateaus until it lasts an hour.
   json camp = rich_campaign({25, 35, 15, 30, 20, 40, 10, 28, 33, 18, 38, 12, 26, 22, 36}, fs_hz);
-  const auto c = imuforge::sim::campaign_from_json(camp);
+  const auto c = imuforge::io::campaign_from_json(camp);
   const auto m = imuforge::model::sensor_model_from_json(base_sensor(true, {{"gyro.g_sensitivity", {{"xz", 2e-4}}}}));
   imuforge::sim::SimOptions so;
   so.seed = 1;

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "host/io/campaign_file.h"
 #include "host/io/log.h"
 #include "tests/diagnosis/sim_helpers.h"
 
@@ -22,7 +23,7 @@ int run(const std::string& args) {
 TEST(DiagnosisCli, WritesOutputsAndFindsTheEffect) {
   const fs::path dir = fs::temp_directory_path() / ("imuforge-diag-cli-" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  const auto camp = imuforge::sim::campaign_from_json(rich_campaign({25.0}, 10.0));
+  const auto camp = imuforge::io::campaign_from_json(rich_campaign({25.0}, 10.0));
   const auto sensor = imuforge::model::sensor_model_from_json(base_sensor(false, {{"gyro.g_sensitivity", {{"yz", 3e-4}}}}));
   imuforge::sim::SimOptions so;
   so.seed = 5;

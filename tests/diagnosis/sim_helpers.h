@@ -5,9 +5,10 @@
 #include <string>
 #include <vector>
 
+#include "host/io/campaign_file.h"
 #include "host/diagnosis/diagnose.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 #include "host/sim/simulator.h"
 
 namespace diagtest {
@@ -115,7 +116,7 @@ inline json base_sensor(bool with_bias_temp, const json& extra = json::object())
 
 // Simulates in-process and converts to diagnosis samples (SI outputs).
 inline std::vector<dg::Sample> simulate(const json& campaign, const json& sensor, std::uint64_t seed) {
-  const auto c = imuforge::sim::campaign_from_json(campaign);
+  const auto c = imuforge::io::campaign_from_json(campaign);
   const auto m = imuforge::model::sensor_model_from_json(sensor);
   imuforge::sim::SimOptions o;
   o.seed = seed;

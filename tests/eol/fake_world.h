@@ -10,8 +10,8 @@
 #include "host/eol/ports.h"
 #include "host/model/measure.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/earth.h"
-#include "host/sim/table.h"
+#include "host/physics/earth.h"
+#include "host/physics/table.h"
 
 namespace imuforge::eoltest {
 
@@ -72,7 +72,7 @@ struct FakeWorld {
     mix(setpoint);
     return h;
   }
-  sim::TableGeometry geom;
+  physics::TableGeometry geom;
   Eigen::Vector3d g_ned, wie_ned;
   std::vector<std::uint8_t> flashed;
   std::uint64_t samples = 0;
@@ -110,9 +110,9 @@ struct FakeWorld {
     geom.n_axes = 2;
     geom.axes[0].axis_nominal = Eigen::Vector3d::UnitZ();
     geom.axes[1].axis_nominal = Eigen::Vector3d::UnitX();
-    sim::Site site{45, 0};
-    g_ned = sim::gravity_ned(site);
-    wie_ned = sim::earth_rate_ned(site);
+    physics::Site site{45, 0};
+    g_ned = physics::gravity_ned(site);
+    wie_ned = physics::earth_rate_ned(site);
   }
 
   void step(double dt) {
@@ -131,12 +131,12 @@ struct FakeWorld {
   }
 
   ImuSample sample() {
-    sim::TableState ts;
+    physics::TableState ts;
     for (int i = 0; i < 3; ++i) {
       ts.angle_rad[static_cast<std::size_t>(i)] = ang[static_cast<std::size_t>(i)] * M_PI / 180;
       ts.rate_rad_s[static_cast<std::size_t>(i)] = rate[static_cast<std::size_t>(i)] * M_PI / 180;
     }
-    auto k = sim::table_kinematics(geom, ts, g_ned, wie_ned);
+    auto k = physics::table_kinematics(geom, ts, g_ned, wie_ned);
     model::MeasureInput in;
     in.f = k.f_mps2;
     in.w = k.w_rad_s;

@@ -296,3 +296,54 @@ TEST(Runner, WrongSerialAndChangedInputsAreRefused) {
   ro.progress = nullptr;
   EXPECT_THROW(run_once(ro, w), std::invalid_argument);
 }
+
+// Honest σ (issue 14 item 6): the station states its fixture's tolerance; the batch solve carries it into
+// every σ. A 0.03° nest (mount) tolerance is 5.2e-4 rad of misalignment that no table campaign can
+// separate, so the 1e-4 misalignment σ limits that pass on noise alone must now fail, by name; cal.json
+// keeps both σ.
+TEST(Runner, FixtureToleranceWidensSigmaAndDecidesPassFail) {
+  Dir dir;
+  eoltest::FakeWorld w;
+  nlohmann::json st = nlohmann::json::parse(station_json(1.0));
+  st["fixture_tolerance"] = {{"axes", {{"tilt_sigma_deg", 0.005}, {"zero_sigma_deg", 0.01}}}, {"mount_sigma_deg", 0.03}};
+  std::ofstream(dir.d / "tol.json") << st.dump(2);
+  auto o = opts(dir, "tol", (dir.d / "tol.json").string());
+  o.early_stop = false;
+  RunResult r = run_once(o, w);
+  EXPECT_FALSE(r.pass);
+  bool misalign_sigma = false;
+  for (const auto& x : r.reasons) misalign_sigma |= x.find("misalign") != std::string::npos && x.find("sigma") != std::string::npos;
+  EXPECT_TRUE(misalign_sigma) << (r.reasons.empty() ? "" : r.reasons[0]);
+  std::ifstream f(o.out_dir + "/cal.json");
+  const nlohmann::json cal = nlohmann::json::parse(f);
+  EXPECT_TRUE(cal["fixture_tolerance"]["stated"].get<bool>());
+  for (const auto& p : cal["parameters"]) {
+    ASSERT_TRUE(p.contains("sigma_noise")) << p["name"];
+    EXPECT_GE(p["sigma"].get<double>(), p["sigma_noise"].get<double>() * (1 - 1e-9)) << p["name"];
+    if (p["name"].get<std::string>().find("misalign") != std::string::npos)
+      EXPECT_GT(p["sigma"].get<double>(), 3e-4) << p["name"];
+  }
+  // A station without a stated tolerance says so in cal.json.
+  Dir dir2;
+  eoltest::FakeWorld w2;
+  auto o2 = opts(dir2, "none", dir2.station(1.0));
+  o2.early_stop = false;
+  run_once(o2, w2);
+  std::ifstream f2(o2.out_dir + "/cal.json");
+  EXPECT_FALSE(nlohmann::json::parse(f2)["fixture_tolerance"]["stated"].get<bool>());
+}
+
+TEST(Runner, FixtureToleranceIsCheckedBeforeTheRun) {
+  Dir dir;
+  eoltest::FakeWorld w;
+  nlohmann::json st = nlohmann::json::parse(station_json(1.0));
+  st["fixture_tolerance"] = {{"axes", nlohmann::json::array({{{"tilt_sigma_deg", 0.005}}})}};  // 1 entry, 2 axes
+  std::ofstream(dir.d / "bad.json") << st.dump(2);
+  try {
+    run_once(opts(dir, "bad", (dir.d / "bad.json").string()), w);
+    ADD_FAILURE() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("fixture_tolerance.axes lists 1 axes but the table has 2"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir.d / "bad" / "journal.log"));
+}

@@ -17,7 +17,7 @@
 #include "host/benchsim/modbus_server.h"
 #include "host/can/client.h"
 #include "host/fixture/fixture.h"
-#include "host/sim/earth.h"
+#include "host/physics/earth.h"
 
 using namespace imuforge;
 
@@ -78,11 +78,11 @@ TEST(ModbusBenchImu, ImuSeesTheCommandedRateAndTheWorldTemperature) {
   client->stop_stream();
   imu->stop();
   ASSERT_GT(m.n, 50);
-  sim::Site site;
+  physics::Site site;
   site.latitude_deg = 45.0;
-  const double wz_expected = 30.0 * M_PI / 180.0 + sim::earth_rate_ned(site).z();
+  const double wz_expected = 30.0 * M_PI / 180.0 + physics::earth_rate_ned(site).z();
   EXPECT_NEAR(m.gz / m.n * probe.gyro_lsb(), wz_expected, 2.0 * probe.gyro_lsb());
-  EXPECT_NEAR(m.az / m.n * probe.accel_lsb(), -sim::normal_gravity_mps2(site), 2.0 * probe.accel_lsb());
+  EXPECT_NEAR(m.az / m.n * probe.accel_lsb(), -physics::normal_gravity_mps2(site), 2.0 * probe.accel_lsb());
   double die_C;
   {
     std::lock_guard<std::mutex> l(bench.mutex());

@@ -7,9 +7,10 @@
 #include <cstdio>
 #include <string>
 
+#include "host/io/campaign_file.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 #include "host/sim/simulator.h"
 
 using namespace imuforge;
@@ -39,21 +40,21 @@ int main(int argc, char** argv) {
   steps.push_back({{"use", "rates"}});
   c["phases"] = json::array();
   c["phases"].push_back({{"type", "plateau"}, {"setpoint_C", 25}, {"soak_s", 0}, {"steps", steps}});
-  sim::Campaign base = sim::campaign_from_json(c);
-  const double one = sim::Campaign(base).nominal_duration_s();
+  physics::Campaign base = io::campaign_from_json(c);
+  const double one = physics::Campaign(base).nominal_duration_s();
   int reps = std::max(1, static_cast<int>(hours * 3600 / one) + 1);
   c["phases"] = json::array();
   for (int i = 0; i < reps; ++i)
     c["phases"].push_back({{"type", "plateau"}, {"setpoint_C", 25 + (i % 2) * 10}, {"soak_s", 0}, {"steps", steps}});
   double done = 0;
   {
-    sim::Campaign tmp = sim::campaign_from_json(c);
+    physics::Campaign tmp = io::campaign_from_json(c);
     done = tmp.nominal_duration_s();
   }
   if (done < hours * 3600)
     c["phases"].push_back({{"type", "plateau"}, {"setpoint_C", 25}, {"soak_s", hours * 3600 - done},
                            {"steps", json::array({{{"type", "soak"}, {"dwell_s", 1}}})}});
-  sim::Campaign camp = sim::campaign_from_json(c);
+  physics::Campaign camp = io::campaign_from_json(c);
   sim::SimOptions opt;
   opt.seed = 1;
   opt.max_duration_s = hours * 3600;

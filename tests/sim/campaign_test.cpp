@@ -4,12 +4,13 @@
 
 #include <gtest/gtest.h>
 
+#include "host/io/campaign_file.h"
 #include "host/io/log.h"
 #include "host/model/measure.h"
-#include "host/sim/campaign.h"
-#include "host/sim/earth.h"
+#include "host/physics/campaign.h"
+#include "host/physics/earth.h"
 #include "host/sim/simulator.h"
-#include "host/sim/timeline.h"
+#include "host/physics/timeline.h"
 
 using namespace imuforge;
 using nlohmann::json;
@@ -25,7 +26,7 @@ model::SensorModel ideal_sensor() {
   return model::sensor_model_from_json(j);
 }
 
-std::vector<io::LogRow> run(const sim::Campaign& c, const model::SensorModel& m, std::uint64_t seed) {
+std::vector<io::LogRow> run(const physics::Campaign& c, const model::SensorModel& m, std::uint64_t seed) {
   std::vector<io::LogRow> out;
   sim::SimOptions o;
   o.seed = seed;
@@ -35,7 +36,7 @@ std::vector<io::LogRow> run(const sim::Campaign& c, const model::SensorModel& m,
 
 std::string parse_error(const json& j) {
   try {
-    sim::campaign_from_json(j);
+    io::campaign_from_json(j);
   } catch (const std::invalid_argument& e) {
     return e.what();
   }
@@ -46,20 +47,20 @@ std::string parse_error(const json& j) {
 
 TEST(Campaign, ExamplesParseAndRoundTrip) {
   for (const char* f : {"campaign-small.json", "campaign-eol.json"}) {
-    sim::Campaign c = sim::load_campaign(ex(f));
+    physics::Campaign c = io::load_campaign(ex(f));
     EXPECT_EQ(c.axes.size(), 3u);
-    sim::Campaign c2 = sim::campaign_from_json(sim::campaign_to_json(c));
+    physics::Campaign c2 = io::campaign_from_json(io::campaign_to_json(c));
     EXPECT_EQ(c2.num_steps(), c.num_steps());
-    EXPECT_EQ(sim::campaign_to_json(c2), sim::campaign_to_json(c));
+    EXPECT_EQ(io::campaign_to_json(c2), io::campaign_to_json(c));
   }
-  sim::Campaign eol = sim::load_campaign(ex("campaign-eol.json"));
+  physics::Campaign eol = io::load_campaign(ex("campaign-eol.json"));
   EXPECT_GE(eol.phases.size(), 4u);
   EXPECT_GE(eol.num_steps(), 4 * 24u);
-  sim::Timeline tl = sim::build_timeline(eol);
+  physics::Timeline tl = physics::build_timeline(eol);
   EXPECT_GT(tl.duration_s, 3600.0);  // realistic: hours, dominated by chamber soaks
   EXPECT_NEAR(tl.duration_s, eol.nominal_duration_s(), 0.01 * tl.duration_s);
-  sim::Campaign small = sim::load_campaign(ex("campaign-small.json"));
-  EXPECT_NEAR(sim::build_timeline(small).duration_s, small.nominal_duration_s(), 0.01 * small.nominal_duration_s());
+  physics::Campaign small = io::load_campaign(ex("campaign-small.json"));
+  EXPECT_NEAR(physics::build_timeline(small).duration_s, small.nominal_duration_s(), 0.01 * small.nominal_duration_s());
 }
 
 TEST(Campaign, ErrorsNameTheJsonPath) {
@@ -86,13 +87,13 @@ TEST(Campaign, ErrorsNameTheJsonPath) {
 }
 
 TEST(Timeline, SegmentsAndMotionAreContinuous) {
-  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
-  sim::Timeline tl = sim::build_timeline(c);
+  physics::Campaign c = io::load_campaign(ex("campaign-small.json"));
+  physics::Timeline tl = physics::build_timeline(c);
   std::size_t cur = 0;
   double prev_ang[3] = {0, 0, 0};
   const double dt = 1e-3;
   for (double t = 0; t < tl.duration_s; t += dt) {
-    auto m = sim::sample_motion(tl, t, cur);
+    auto m = physics::sample_motion(tl, t, cur);
     for (int a = 0; a < 3; ++a) {
       // Angles continuous: step bounded by max rate · dt.
       EXPECT_LE(std::fabs(m.table.angle_rad[a] - prev_ang[a]), c.axes[a].max_rate_dps * M_PI / 180 * dt * 1.0001 + 1e-12)
@@ -108,7 +109,7 @@ TEST(Timeline, SegmentsAndMotionAreContinuous) {
 }
 
 TEST(Simulate, SameSeedBitIdenticalDifferentSeedDiffers) {
-  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
+  physics::Campaign c = io::load_campaign(ex("campaign-small.json"));
   model::SensorModel m = model::load_sensor_model(ex("sensor-automotive.json"));
   auto a = run(c, m, 5), b = run(c, m, 5), d = run(c, m, 6);
   ASSERT_EQ(a.size(), b.size());
@@ -127,10 +128,10 @@ TEST(Simulate, SameSeedBitIdenticalDifferentSeedDiffers) {
 // An ideal sensor (tiny LSB, no effects) on a perfect fixture reads exactly the reference; a sensor with
 // only deterministic effects reads measure(reference) to within half an LSB.
 TEST(Simulate, IdealAndDeterministicSensorsReadTheModel) {
-  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
-  c.simulation = json::object();  // no fixture errors, no encoder/temperature noise
+  physics::Campaign c = io::load_campaign(ex("campaign-small.json"));
+  c.simulation_json.clear();  // no fixture errors, no encoder/temperature noise
   model::SensorModel ideal = ideal_sensor();
-  const double g = sim::normal_gravity_mps2(sim::Site{c.latitude_deg, c.height_m});
+  const double g = physics::normal_gravity_mps2(physics::Site{c.latitude_deg, c.height_m});
   std::size_t static_rows = 0;
   for (const auto& r : run(c, ideal, 1)) {
     ASSERT_TRUE(r.has_ref);
@@ -172,8 +173,8 @@ TEST(Simulate, IdealAndDeterministicSensorsReadTheModel) {
 }
 
 TEST(Simulate, ThermalLagsAndSelfHeats) {
-  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
-  c.simulation = json::object();
+  physics::Campaign c = io::load_campaign(ex("campaign-small.json"));
+  c.simulation_json.clear();
   model::SensorModel m = ideal_sensor();
   m.thermal.die_tau_s = 30;
   m.thermal.self_heating_C = 2.0;
@@ -198,8 +199,8 @@ TEST(Simulate, ThermalLagsAndSelfHeats) {
 }
 
 TEST(Simulate, WhiteNoiseHasTheSpecifiedDensity) {
-  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
-  c.simulation = json::object();
+  physics::Campaign c = io::load_campaign(ex("campaign-small.json"));
+  c.simulation_json.clear();
   json sj = model::sensor_model_to_json(ideal_sensor());
   sj["effects"] = {{"gyro.white_noise", {{"x", 1e-4}, {"y", 2e-4}, {"z", 3e-4}}}};
   model::SensorModel m = model::sensor_model_from_json(sj);
@@ -218,7 +219,7 @@ TEST(Simulate, WhiteNoiseHasTheSpecifiedDensity) {
 }
 
 TEST(Simulate, TruthHoldsEveryParameterAndTheRealisedTurnOnBias) {
-  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
+  physics::Campaign c = io::load_campaign(ex("campaign-small.json"));
   model::SensorModel m = model::load_sensor_model(ex("sensor-consumer.json"));
   sim::SimOptions o;
   o.seed = 3;
@@ -268,11 +269,11 @@ TEST(Noise, RateRandomWalkAllanSlope) {
 }
 
 TEST(Simulate, FacesOfTheExampleTumbleAreWhatTheDocsSay) {
-  sim::Campaign c = sim::load_campaign(ex("campaign-small.json"));
-  c.simulation = json::object();
-  sim::Timeline tl = sim::build_timeline(c);
+  physics::Campaign c = io::load_campaign(ex("campaign-small.json"));
+  c.simulation_json.clear();
+  physics::Timeline tl = physics::build_timeline(c);
   std::vector<io::LogRow> rows = run(c, ideal_sensor(), 1);
-  const double g = sim::normal_gravity_mps2(sim::Site{c.latitude_deg, c.height_m});
+  const double g = physics::normal_gravity_mps2(physics::Site{c.latitude_deg, c.height_m});
   int checked = 0;
   for (const auto& s : tl.segments) {
     if (s.kind != "position" || s.label.find(" az ") == std::string::npos) continue;
@@ -296,13 +297,13 @@ TEST(Simulate, HandHeldPosesHaveNoReferenceAndRestAtTheAttitude) {
                {"steps",
                 {{{"type", "pose"}, {"attitude_deg", {30, 0, 0}}, {"move_s", 2}, {"dwell_s", 4}, {"label", "roll 30"}},
                  {{"type", "pose"}, {"attitude_deg", {0, -90, 45}}, {"move_s", 3}, {"dwell_s", 4}, {"label", "nose down"}}}}}}}};
-  sim::Campaign c = sim::campaign_from_json(j);
+  physics::Campaign c = io::campaign_from_json(j);
   json sj = model::sensor_model_to_json(ideal_sensor());
   model::SensorModel m = model::sensor_model_from_json(sj);
   auto rows = run(c, m, 1);
-  sim::Timeline tl = sim::build_timeline(c);
+  physics::Timeline tl = physics::build_timeline(c);
   ASSERT_EQ(tl.segments.size(), 2u);
-  const double g = sim::normal_gravity_mps2(sim::Site{35.0, 0.0});
+  const double g = physics::normal_gravity_mps2(physics::Site{35.0, 0.0});
   for (const auto& r : rows) {
     EXPECT_FALSE(r.has_ref);
     EXPECT_TRUE(std::isnan(r.table_angle_rad[0]));
@@ -316,5 +317,5 @@ TEST(Simulate, HandHeldPosesHaveNoReferenceAndRestAtTheAttitude) {
   EXPECT_NEAR(b.raw[0] * 1e-7, -g, 1e-5);  // pitch −90° (NED): nose (x) down, f_x = −g
   // The gyro at rest reads only the Earth rate.
   const double wn = std::sqrt(std::pow(b.raw[3] * 1e-8, 2) + std::pow(b.raw[4] * 1e-8, 2) + std::pow(b.raw[5] * 1e-8, 2));
-  EXPECT_NEAR(wn, sim::wgs84::kOmegaE_rad_s, 2e-8);
+  EXPECT_NEAR(wn, physics::wgs84::kOmegaE_rad_s, 2e-8);
 }

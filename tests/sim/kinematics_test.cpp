@@ -4,10 +4,10 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
-#include "host/sim/earth.h"
-#include "host/sim/table.h"
+#include "host/physics/earth.h"
+#include "host/physics/table.h"
 
-using namespace imuforge::sim;
+using namespace imuforge::physics;
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
 

@@ -13,9 +13,10 @@
 #include <fstream>
 #include <string>
 
+#include "host/io/campaign_file.h"
 #include "host/model/body_frame.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 #include "host/sim/simulator.h"
 #include "host/solver/fixture.h"
 #include "host/solver/fixture_errors.h"
@@ -58,7 +59,7 @@ model::ModelSpec basic_model(bool body_frame) {
 
 struct SimLog {
   std::string path;
-  sim::Campaign campaign;
+  physics::Campaign campaign;
   model::ParamSet truth;
   ~SimLog() { std::remove(path.c_str()); }
 };
@@ -66,7 +67,7 @@ struct SimLog {
 std::unique_ptr<SimLog> simulate_with(const json& campaign, const model::SensorModel& sensor, const std::string& tag,
                                       std::uint64_t seed) {
   auto out = std::make_unique<SimLog>();
-  out->campaign = sim::campaign_from_json(campaign);
+  out->campaign = io::campaign_from_json(campaign);
   sim::SimOptions opt;
   opt.seed = seed;
   out->path = ::testing::TempDir() + "fixture_errors_" + tag + "_" + std::to_string(seed) + ".bin";

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <random>
 
+#include "host/io/campaign_file.h"
 #include "host/model/sensor_model.h"
 #include "host/sim/simulator.h"
 #include "host/solver/fixture.h"
@@ -293,7 +294,7 @@ SimRun simulate_thermal_ramps(bool up_and_down) {
   sj["effects"]["gyro.temp_rate"] = {{"x", 1.0e-3}, {"y", -1.2e-3}, {"z", 8e-4}};
   SimRun run;
   run.sensor = model::sensor_model_from_json(sj);
-  const sim::Campaign camp = sim::campaign_from_json(c);
+  const physics::Campaign camp = io::campaign_from_json(c);
   sim::SimOptions opt;
   opt.seed = 11;
   run.meta = sim::make_log_meta(camp, run.sensor, opt);
@@ -455,7 +456,7 @@ TEST(FixtureMode, RecursivePerPlateauEqualsBatchWithin1e6Sigma) {
 // segment a plateau of its own (it used to: 8 plateaus, half of them informed by one orientation, and a
 // rank-deficient solve). Segments in transit are left out; the four setpoints remain.
 TEST(FixtureMode, PerPlateauLeavesTransitSegmentsOut) {
-  const sim::Campaign camp = sim::load_campaign(IMUFORGE_SOURCE_DIR "/docs/examples/campaign-eol.json");
+  const physics::Campaign camp = io::load_campaign(IMUFORGE_SOURCE_DIR "/docs/examples/campaign-eol.json");
   const model::SensorModel sensor = model::load_sensor_model(IMUFORGE_SOURCE_DIR "/docs/examples/sensor-matched.json");
   sim::SimOptions opt;
   opt.seed = 5;

@@ -11,9 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "host/io/campaign_file.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
-#include "host/sim/campaign.h"
+#include "host/physics/campaign.h"
 #include "host/sim/simulator.h"
 
 namespace fs = std::filesystem;
@@ -59,7 +60,7 @@ class SolveCli : public ::testing::Test {
     if (thin) c["phases"][0]["steps"] = json::array({{{"use", "tumble24"}}, {{"use", "outer_rates"}}});
     campaign_path = dir_ / (thin ? "thin.json" : "campaign.json");
     std::ofstream(campaign_path) << c.dump(1);
-    const sim::Campaign camp = sim::campaign_from_json(c);
+    const physics::Campaign camp = io::campaign_from_json(c);
     json s = read_json(IMUFORGE_SOURCE_DIR "/docs/examples/sensor-matched.json");
     for (const char* k : {"accel.bias_temp", "accel.scale_temp", "gyro.bias_temp", "gyro.scale_temp"}) s["effects"].erase(k);
     const model::SensorModel sensor = model::sensor_model_from_json(s);
@@ -144,4 +145,55 @@ TEST_F(SolveCli, BadFixtureNuisanceAndMissingCampaignAreClearErrors) {
           dir_);
   EXPECT_EQ(r.rc, 0) << r.out;
   EXPECT_EQ(read_json(dir_ / "x.json")["fixture_errors"]["assumed_zero"], json::array({"fixture.axis0.tilt_a"}));
+}
+
+// Honest σ from the command line (docs/calibration.md "Honest σ"): the model states the fixture's
+// tolerance; fixture mode needs --campaign for it, writes sigma and sigma_noise, and the σ covers the
+// campaign's 0.1° fixture errors that the noise-only σ do not. In fixture+errors mode the parameters it
+// estimates are not considered again.
+TEST_F(SolveCli, FixtureToleranceGivesHonestSigmaInBothFixtureModes) {
+  fs::path camp;
+  const std::string log = simulate(false, camp);
+  json m = read_json(IMUFORGE_SOURCE_DIR "/docs/examples/model-basic.json");
+  m["fixture_tolerance"] = {{"axes", {{"tilt_sigma_deg", 0.1}, {"zero_sigma_deg", 0.1}}}, {"mount_sigma_deg", 0.1}};
+  const fs::path model = dir_ / "model-tol.json", cal = dir_ / "tol-cal.json";
+  std::ofstream(model) << m.dump();
+  CmdResult r = run("--log " + log + " --model " + model.string() + " --mode fixture --out " + cal.string(), dir_);
+  EXPECT_NE(r.rc, 0);
+  EXPECT_NE(r.out.find("fixture_tolerance"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--campaign"), std::string::npos) << r.out;
+  r = run("--log " + log + " --model " + model.string() + " --mode fixture --campaign " + camp.string() + " --out " +
+              cal.string(),
+          dir_);
+  ASSERT_EQ(r.rc, 0) << r.out;
+  const json truth_sensor = read_json(IMUFORGE_SOURCE_DIR "/docs/examples/sensor-matched.json");
+  json j = read_json(cal);
+  EXPECT_TRUE(j["fixture_tolerance"]["stated"].get<bool>());
+  EXPECT_EQ(j["fixture_tolerance"]["considered"].size(), 3u * 3 + 3);
+  double worst_honest = 0, worst_noise = 0;
+  for (const auto& p : j["parameters"]) {
+    const std::string name = p["name"];
+    ASSERT_TRUE(p.contains("sigma_noise")) << name;
+    EXPECT_GE(p["sigma"].get<double>(), p["sigma_noise"].get<double>()) << name;
+    if (name.find("misalign") == std::string::npos) continue;
+    // sensor-matched's misalignments are constants in its "effects"; the log's fixture errors move them.
+    const std::string eff = name.substr(0, name.rfind('.')), comp = name.substr(name.rfind('.') + 1);
+    const double t = truth_sensor["effects"][eff][comp].get<double>();
+    worst_honest = std::max(worst_honest, std::abs(p["value"].get<double>() - t) / p["sigma"].get<double>());
+    worst_noise = std::max(worst_noise, std::abs(p["value"].get<double>() - t) / p["sigma_noise"].get<double>());
+  }
+  EXPECT_LT(worst_honest, 4.0);
+  EXPECT_GT(worst_noise, 10.0);
+  // fixture+errors, body frame: only what it does not estimate is considered.
+  json mb = read_json(kBody);
+  mb["fixture_tolerance"] = m["fixture_tolerance"];
+  std::ofstream(model) << mb.dump();
+  r = run("--log " + log + " --model " + model.string() + " --mode fixture+errors --campaign " + camp.string() +
+              " --out " + cal.string(),
+          dir_);
+  ASSERT_EQ(r.rc, 0) << r.out;
+  j = read_json(cal);
+  const json fixed = j["fixture_errors"]["fixed_by_gauge"];
+  EXPECT_EQ(j["fixture_tolerance"]["considered"], fixed);
+  for (const auto& p : j["parameters"]) EXPECT_GE(p["sigma"].get<double>(), p["sigma_noise"].get<double>()) << p["name"];
 }

@@ -9,7 +9,7 @@
 
 #include <Eigen/Core>
 
-namespace imuforge::sim {
+namespace imuforge::physics {
 
 namespace wgs84 {
 constexpr double kA_m = 6378137.0;                    // semi-major axis
@@ -35,4 +35,19 @@ Eigen::Vector3d earth_rate_ned(const Site& s);
 // Gravity vector in NED: (0, 0, +g).
 Eigen::Vector3d gravity_ned(const Site& s);
 
-}  // namespace imuforge::sim
+// Geodetic position on the WGS-84 ellipsoid (radians, metres above the ellipsoid).
+struct Geodetic {
+  double lat_rad = 0, lon_rad = 0, h_m = 0;
+};
+
+// Radii of curvature at latitude φ: meridian M = a(1 − e²)/(1 − e² sin²φ)^{3/2} and prime vertical
+// (normal) N = a/√(1 − e² sin²φ). Moving north by dφ covers (M + h) dφ; east by dλ, (N + h) cos φ dλ.
+struct EarthRadii {
+  double meridian_m = 0, normal_m = 0;
+};
+EarthRadii radii_of_curvature(double lat_rad);
+// Transport rate ω_en (the local-level frame turning as it is carried over the ellipsoid), NED:
+// (v_E/(N + h), −v_N/(M + h), −v_E tan φ/(N + h)).
+Eigen::Vector3d transport_rate_ned(double lat_rad, double h_m, const Eigen::Vector3d& v_ned);
+
+}  // namespace imuforge::physics

@@ -1,9 +1,9 @@
-#include "host/sim/table.h"
+#include "host/physics/table.h"
 
 #include <cmath>
 #include <stdexcept>
 
-namespace imuforge::sim {
+namespace imuforge::physics {
 
 namespace {
 
@@ -180,4 +180,4 @@ Eigen::Matrix3d rotation_zyx_deg(double yaw_deg, double pitch_deg, double roll_d
       .toRotationMatrix();
 }
 
-}  // namespace imuforge::sim
+}  // namespace imuforge::physics

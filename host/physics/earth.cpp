@@ -1,8 +1,8 @@
-#include "host/sim/earth.h"
+#include "host/physics/earth.h"
 
 #include <cmath>
 
-namespace imuforge::sim {
+namespace imuforge::physics {
 
 double normal_gravity_mps2(const Site& s) {
   using namespace wgs84;
@@ -26,4 +26,17 @@ Eigen::Vector3d earth_rate_ned(const Site& s) {
 
 Eigen::Vector3d gravity_ned(const Site& s) { return Eigen::Vector3d(0.0, 0.0, normal_gravity_mps2(s)); }
 
-}  // namespace imuforge::sim
+EarthRadii radii_of_curvature(double lat_rad) {
+  const double s = std::sin(lat_rad);
+  const double w2 = 1.0 - wgs84::kE2 * s * s;
+  const double w = std::sqrt(w2);
+  return EarthRadii{wgs84::kA_m * (1.0 - wgs84::kE2) / (w2 * w), wgs84::kA_m / w};
+}
+
+Eigen::Vector3d transport_rate_ned(double lat_rad, double h_m, const Eigen::Vector3d& v_ned) {
+  const EarthRadii r = radii_of_curvature(lat_rad);
+  const double rn = r.normal_m + h_m;
+  return Eigen::Vector3d(v_ned.y() / rn, -v_ned.x() / (r.meridian_m + h_m), -v_ned.y() * std::tan(lat_rad) / rn);
+}
+
+}  // namespace imuforge::physics

@@ -18,9 +18,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "host/sim/earth.h"
+#include "host/physics/earth.h"
 
-namespace imuforge::sim {
+namespace imuforge::physics {
 
 constexpr int kMaxTableAxes = 3;
 
@@ -99,4 +99,4 @@ Eigen::Vector3d axis_from_name(const std::string& name);
 // Rotation matrix from ZYX Euler angles (yaw, pitch, roll), deg: C_parent_child = Rz Ry Rx.
 Eigen::Matrix3d rotation_zyx_deg(double yaw_deg, double pitch_deg, double roll_deg);
 
-}  // namespace imuforge::sim
+}  // namespace imuforge::physics

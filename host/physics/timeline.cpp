@@ -1,4 +1,4 @@
-#include "host/sim/timeline.h"
+#include "host/physics/timeline.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include <Eigen/Geometry>
 
-namespace imuforge::sim {
+namespace imuforge::physics {
 
 namespace {
 
@@ -329,4 +329,4 @@ MotionSample sample_motion(const Timeline& tl, double t, std::size_t& cursor) {
   return m;
 }
 
-}  // namespace imuforge::sim
+}  // namespace imuforge::physics

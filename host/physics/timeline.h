@@ -8,10 +8,10 @@
 
 #include <Eigen/Core>
 
-#include "host/sim/campaign.h"
-#include "host/sim/table.h"
+#include "host/physics/campaign.h"
+#include "host/physics/table.h"
 
-namespace imuforge::sim {
+namespace imuforge::physics {
 
 // Motion of one table axis over one entry, τ = t − t0 (rad, rad/s, rad/s²).
 struct AxisProfile {
@@ -80,4 +80,4 @@ struct MotionSample {
 // monotone or nearly monotone t). t is clamped to [0, duration].
 MotionSample sample_motion(const Timeline& tl, double t, std::size_t& cursor);
 
-}  // namespace imuforge::sim
+}  // namespace imuforge::physics

@@ -1,4 +1,4 @@
-#include "host/sim/campaign.h"
+#include "host/io/campaign_file.h"
 
 #include "host/io/input_error.h"
 
@@ -6,7 +6,12 @@
 #include <fstream>
 #include <stdexcept>
 
-namespace imuforge::sim {
+namespace imuforge::io {
+
+using physics::Campaign;
+using physics::CampaignAxis;
+using physics::CampaignPhase;
+using physics::CampaignStep;
 
 using nlohmann::json;
 
@@ -193,7 +198,7 @@ Campaign campaign_from_json(const json& j) {
     } else if (k == "phases") {
       phases = &*it;
     } else if (k == "simulation") {
-      c.simulation = *it;
+      c.simulation_json = it->dump();
     } else {
       bad("campaign", "unknown key '" + k + "'");
     }
@@ -307,90 +312,8 @@ json campaign_to_json(const Campaign& c) {
     ph.push_back(o);
   }
   j["phases"] = ph;
-  if (!c.simulation.is_null()) j["simulation"] = c.simulation;
+  if (!c.simulation_json.empty()) j["simulation"] = json::parse(c.simulation_json);
   return j;
 }
 
-std::size_t Campaign::num_steps() const {
-  std::size_t n = 0;
-  for (const auto& p : phases) n += p.steps.size();
-  return n;
-}
-
-double Campaign::nominal_duration_s() const {
-  // Mirrors the simulator's timeline (host/sim/timeline.cpp) closely: trapezoidal moves to the nearest
-  // equivalent angle, accel-limited rate changes, stops before static steps.
-  const std::size_t n = axes.size();
-  std::array<double, 3> ang{}, rate{};
-  auto move_time = [&](std::size_t i, double d) {
-    const double v = axes[i].max_rate_dps, a = axes[i].max_accel_dps2, ad = std::fabs(d);
-    return ad >= v * v / a ? 2 * v / a + (ad - v * v / a) / v : 2 * std::sqrt(ad / a);
-  };
-  auto rate_to = [&](const std::array<double, 3>& r1) {
-    double dur = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      dur = std::max(dur, std::fabs(r1[i] - rate[i]) / axes[i].max_accel_dps2);
-      // The angle travelled while changing rate.
-      ang[i] += (r1[i] + rate[i]) / 2 * std::fabs(r1[i] - rate[i]) / axes[i].max_accel_dps2;
-      rate[i] = r1[i];
-    }
-    return dur;
-  };
-  double t = 0, T = initial_C;
-  for (const auto& p : phases) {
-    t += rate_to({0, 0, 0});
-    if (p.kind == CampaignPhase::Kind::kRamp) {
-      t += std::fabs(p.setpoint_C - T) / (p.rate_C_per_min / 60.0);
-      T = p.setpoint_C;
-      continue;
-    }
-    t += std::fabs(p.setpoint_C - T) / (ramp_limit_C_per_min / 60.0) + p.soak_s;
-    T = p.setpoint_C;
-    for (const auto& s : p.steps) {
-      using K = CampaignStep::Kind;
-      switch (s.kind) {
-        case K::kPosition: {
-          t += rate_to({0, 0, 0});
-          double dur = 0;
-          for (std::size_t i = 0; i < n; ++i) {
-            double tgt = s.position_deg[i];
-            tgt += 360.0 * std::round((ang[i] - tgt) / 360.0);
-            dur = std::max(dur, move_time(i, tgt - ang[i]));
-            ang[i] = tgt;
-          }
-          t += dur + (s.settle_s >= 0 ? s.settle_s : settle_s);
-          break;
-        }
-        case K::kRate:
-          t += rate_to(s.rate_dps);
-          for (std::size_t i = 0; i < n; ++i) ang[i] += rate[i] * s.dwell_s;
-          break;
-        case K::kRampRate:
-          t += rate_to(s.rate_from_dps);
-          for (std::size_t i = 0; i < n; ++i) {
-            ang[i] += (s.rate_from_dps[i] + s.rate_dps[i]) / 2 * s.dwell_s;
-            rate[i] = s.rate_dps[i];
-          }
-          break;
-        case K::kSine: {
-          t += rate_to({0, 0, 0});
-          double dur = 0;
-          for (std::size_t i = 0; i < n; ++i) dur = std::max(dur, move_time(i, s.amplitude_deg[i]));
-          t += dur;
-          rate = {0, 0, 0};  // approximately: the oscillation ends near rest in the timeline's next stop
-          break;
-        }
-        case K::kSoak:
-          t += rate_to({0, 0, 0});
-          break;
-        case K::kPose:
-          t += rate_to({0, 0, 0}) + s.move_s;
-          break;
-      }
-      t += s.dwell_s;
-    }
-  }
-  return t;
-}
-
-}  // namespace imuforge::sim
+}  // namespace imuforge::io

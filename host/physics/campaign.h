@@ -1,6 +1,7 @@
-// The campaign file: the fixture schedule read by BOTH the simulator and the real end-of-line runner
-// (docs/formats.md § campaign). This header and campaign.cpp depend only on nlohmann::json and the
-// standard library: link imuforge_sim, but nothing here pulls simulation code in.
+// The campaign: the fixture schedule run by BOTH the simulator and the real end-of-line runner, and
+// read by the solver's fixture+errors mode (docs/formats.md § campaign). Plain data and the schedule's
+// nominal duration; the JSON file is read and written by host/io/campaign_file.h. This part
+// (host/physics) depends on nothing but Eigen and the standard library.
 //
 // A campaign is a list of phases in time order:
 //   plateau  chamber setpoint jumps to setpoint_C (the chamber ramps at its limit); the table holds
@@ -22,9 +23,7 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
-namespace imuforge::sim {
+namespace imuforge::physics {
 
 struct CampaignAxis {
   std::string name;            // "inner", "outer", ...
@@ -77,19 +76,16 @@ struct Campaign {
   double chamber_tau_s = 120.0;                 // first-order air response to the slewed setpoint
 
   std::vector<CampaignPhase> phases;
-  nlohmann::json simulation;  // optional "simulation" block (fixture errors, encoder noise); runner ignores
+  // The optional "simulation" block (fixture errors, encoder noise) as compact JSON text, "" when absent.
+  // Only the simulator reads it (host/sim); the runner and the solver ignore it.
+  std::string simulation_json;
 
   // Nominal duration (s) of the whole schedule including moves and chamber slews, from the limits.
   // Mirrors the simulator's timeline (within 1 % on the examples; sine steps are approximate).
-  // For progress/ETA displays; sim::build_timeline() is authoritative.
+  // For progress/ETA displays; physics::build_timeline() is authoritative.
   double nominal_duration_s() const;
   // Number of steps over all phases (segments = steps + plateau soaks + ramps).
   std::size_t num_steps() const;
 };
 
-// Throws std::invalid_argument naming the JSON path of the problem (e.g. "phases[2].steps[5].dwell_s").
-Campaign campaign_from_json(const nlohmann::json& j);
-Campaign load_campaign(const std::string& path);
-nlohmann::json campaign_to_json(const Campaign& c);
-
-}  // namespace imuforge::sim
+}  // namespace imuforge::physics

@@ -1,0 +1,444 @@
+#!/usr/bin/env python3
+"""The blind battery: runs the real `imuforge diagnose` on cases written by blindgen.py (an independent
+generator) or by `imuforge simulate` (the project's own simulator, second source), and scores the
+diagnosis against the acceptance figures of issue 12 (docs/diagnosis.md, "Blind battery").
+
+  battery.py --imuforge build/host/bin/imuforge --suite smoke --work /tmp/blind      # the ctest subset
+  battery.py --imuforge build/host/bin/imuforge --suite full --work /tmp/blind       # the benchmark
+  battery.py ... --source simulate      # same sensors through `imuforge simulate` (catalog effects only)
+  battery.py ... --floors tools/blindgen/floors-smoke.json   # exit 1 when a figure falls below its floor
+
+Scoring (against model-thermal unless the case says otherwise):
+  recall    = |selected ∩ beyond-model effects present| / |beyond-model effects present|
+  false     = selected effects that are not present (stochastic findings in `selected` are not counted)
+  ooc pass  = nothing selected and every affected axis is named in `unexplained`
+  null pass = nothing selected and `unexplained` empty (absent key = nothing flagged)
+  single    = top-1 of the deterministic ranking is the injected effect; magnitude: every injected
+              component within 3 sigma of the truth (final joint fit if selected, else the ranking's fit)
+"""
+import argparse
+import hashlib
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+import blindgen  # noqa: E402
+
+REPO = blindgen.repo_root()
+STOCH_EFFECTS = {'white_noise', 'bias_instability', 'rate_random_walk', 'quantization', 'saturation', 'turn_on_bias',
+                 'flicker', 'gauss_markov'}
+
+DETECTABLE_SNR = 10.0  # blindgen's detectability estimate (truth.json "snr") above which an effect counts as detectable
+
+# acceptance figures of issue 12 (name: (target, 'min' | 'max'))
+TARGETS = {
+    'random.mean_recall': (0.90, 'min'),
+    'random.frac_le1_false': (0.90, 'min'),
+    'example.automotive.recall': (0.90, 'min'),
+    'example.automotive.false': (1, 'max'),
+    'example.automotive.max_chi2_after': (3.0, 'max'),
+    'example.automotive-eol.recall': (0.90, 'min'),
+    'example.automotive-eol.false': (1, 'max'),
+    'example.automotive-eol.max_chi2_after': (3.0, 'max'),
+    'single.top1': (0.95, 'min'),
+    'single.mag3sigma': (0.95, 'min'),
+    'ooc.pass': (0.90, 'min'),
+    'null.pass': (0.95, 'min'),
+    'stochastic.nothing_selected': (0.95, 'min'),
+}
+
+
+def suite(name):
+    """(case name, kind, seed, options) of a suite."""
+    cases = []
+    if name == 'smoke':
+        # a few short cases: ~1-2 min in total on a loaded 2-core machine
+        for s in (101, 104):  # 104: no table columns (seed % 4 == 0)
+            cases.append(('random-%d' % s, 'random', s, {'size': 'short'}))
+        cases.append(('null-201', 'null', 201, {'size': 'short', 'cls': 'automotive'}))
+        cases.append(('stoch-301', 'stochastic', 301, {'size': 'short', 'cls': 'automotive'}))
+        cases.append(('ooc-heading-401', 'ooc', 401, {'size': 'short', 'ooc': 'heading', 'cls': 'automotive'}))
+        cases.append(('single-gyro.g_sensitivity-501', 'single', 501, {'size': 'short', 'effect': 'gyro.g_sensitivity', 'cls': 'automotive'}))
+        cases.append(('example-automotive', 'example', 3, {'size': 'short', 'sensor': 'docs/examples/sensor-automotive.json'}))
+        return cases
+    if name != 'full':
+        raise SystemExit('unknown suite ' + name)
+    for s in range(1, 51):
+        cases.append(('random-%d' % s, 'random', 1000 + s, {}))
+    for cls in blindgen.CLASSES:
+        cases.append(('example-%s' % cls, 'example', 3, {'sensor': 'docs/examples/sensor-%s.json' % cls}))
+    # the issue's own reproduction: the automotive example on campaign-eol (simulate source only)
+    cases.append(('example-automotive-eol', 'example', 3, {'sensor': 'docs/examples/sensor-automotive.json',
+                                                            'campaign': 'docs/examples/campaign-eol.json', 'size': 'short'}))
+    for i, cls in enumerate(blindgen.CLASSES * 2):
+        cases.append(('null-%s-%d' % (cls, i), 'null', 2000 + i, {'cls': cls}))
+        cases.append(('stoch-%s-%d' % (cls, i), 'stochastic', 3000 + i, {'cls': cls}))
+    for k, kind in enumerate(['heading', 'bias_step', 'w_cubed', 'abs_rate', 'periodic']):
+        for i in range(2):
+            cases.append(('ooc-%s-%d' % (kind, i), 'ooc', 4000 + 10 * k + i, {'ooc': kind}))
+    cases.append(('ooc_noise-0', 'ooc_noise', 4100, {}))
+    # clock drift accumulating >= 1 s over the run (issue 12: timing must hold to 1 s of shift), automotive noise
+    cases.append(('single-accel.timing-1s', 'single', 5900, {'effect': 'accel.timing', 'cls': 'automotive', 'timing': {'ppm': 420.0, 'latency_s': 5e-4}}))
+    cases.append(('single-gyro.timing-1s', 'single', 5901, {'effect': 'gyro.timing', 'cls': 'automotive', 'timing': {'ppm': -420.0}}))
+    for k, eff in enumerate(blindgen.CANDIDATES):
+        for i, cls in enumerate(['consumer', 'automotive']):
+            cases.append(('single-%s-%s' % (eff, cls), 'single', 5000 + 10 * k + i, {'effect': eff, 'cls': cls}))
+    return cases
+
+
+def case_hash(kind, seed, opt):
+    src = open(os.path.join(HERE, 'blindgen.py'), 'rb').read()
+    h = hashlib.sha256(src + json.dumps([kind, seed, opt], sort_keys=True).encode()).hexdigest()
+    return h[:16]
+
+
+def make(work, name, kind, seed, opt, fmt, reuse=False):
+    d = os.path.join(work, 'cases', name)
+    h = case_hash(kind, seed, opt)
+    tp = os.path.join(d, 'truth.json')
+    if os.path.exists(tp):
+        t = json.load(open(tp))
+        if (reuse or t.get('case_hash') == h) and os.path.exists(os.path.join(d, 'log.' + fmt)):
+            return d, t
+    shutil.rmtree(d, ignore_errors=True)
+    opt2 = dict(opt)
+    sensor = opt2.pop('sensor', None)
+    if sensor:
+        sensor = os.path.join(REPO, sensor)
+    case = blindgen.make_case(kind, seed, opt2.get('size', 'full'), sensor, opt2.get('cls'), opt2.get('effect'),
+                              opt2.get('g2_squares', False), opt2.get('ooc'), opt2.get('timing'))
+    truth, _ = blindgen.write_case(case, d, fmt, name)
+    truth['case_hash'] = h
+    with open(tp, 'w') as f:
+        json.dump(truth, f, indent=1)
+    return d, truth
+
+
+def run_diagnose(imuforge, log, model, out, timeout_s=1800):
+    t0 = time.time()
+    p = subprocess.run([imuforge, 'diagnose', '--log', log, '--model', model, '--out', out],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=timeout_s)
+    with open(out + '.txt', 'wb') as f:
+        f.write(p.stdout + p.stderr)
+    if p.returncode != 0:
+        return None, 'imuforge diagnose exit %d: %s' % (p.returncode, p.stderr.decode(errors='replace').strip()[:300])
+    return json.load(open(os.path.join(out, 'diagnosis.json'))), time.time() - t0
+
+
+def deterministic_selected(d):
+    return sorted({'%s.%s' % (s['sensor'], s['effect']) for s in d.get('selected', []) if s['effect'] not in STOCH_EFFECTS})
+
+
+def unexplained_axes(d):
+    # new key (issue 12): top-level list of {axis, chi2_dof_after, signature}; absent = nothing flagged
+    return sorted({u['axis'] for u in (d.get('unexplained') or [])})
+
+
+def top1(d):
+    for r in d.get('ranking', []):
+        if r.get('excitable', True) and r['effect'] not in STOCH_EFFECTS:
+            return '%s.%s' % (r['sensor'], r['effect'])
+    return None
+
+
+def magnitude_check(d, truth, effect_key):
+    """(all injected components within 3 sigma, details). Final joint fit if the effect was selected, else
+    the ranking's fit of that candidate."""
+    params = {}
+    for p in d.get('parameters', []):
+        params.setdefault(p['name'], p)
+    ranked = {}
+    for r in d.get('ranking', []):
+        if '%s.%s' % (r['sensor'], r['effect']) == effect_key:
+            for p in r.get('magnitude', []):
+                ranked.setdefault(p['name'], p)
+    ok, det = True, []
+    for name, val in truth['parameters'].items():
+        if not name.startswith(effect_key + '.'):
+            continue
+        p = params.get(name) or ranked.get(name)
+        if p is None or p.get('value') is None or p.get('sigma') in (None, 0):
+            ok = False
+            det.append('%s: not estimated' % name)
+            continue
+        z = (p['value'] - val) / p['sigma']
+        if not abs(z) <= 3:
+            ok = False
+        det.append('%s: %.4g vs %.4g (z=%.1f)' % (name, p['value'], val, z))
+    return ok, det
+
+
+def max_chi2_after(d):
+    ga = d.get('gap_after') or {}
+    v = [a.get('heldout_chi2_dof') for a in ga.values() if a.get('heldout_chi2_dof') is not None]
+    return max(v) if v else float('nan')
+
+
+def score(truth, d):
+    exp = set(truth['beyond_model'])
+    sel = set(deterministic_selected(d))
+    une = set(unexplained_axes(d))
+    r = {'selected': sorted(sel), 'expected': sorted(exp), 'unexplained': sorted(une),
+         'missed': sorted(exp - sel), 'false_effects': sorted(sel - exp), 'false': len(sel - exp),
+         'recall': (len(exp & sel) / len(exp)) if exp else None, 'max_chi2_after': max_chi2_after(d)}
+    snr = truth.get('snr') or {}
+    det = {k for k in exp if snr.get(k, float('inf')) >= DETECTABLE_SNR}
+    r['recall_detectable'] = (len(det & sel) / len(det)) if det else None
+    r['missed_snr'] = {k: round(snr[k], 1) for k in r['missed'] if k in snr}
+    kind = truth['kind']
+    if kind == 'single':
+        eff = truth['beyond_model'][0]
+        r['top1'] = top1(d) == eff
+        r['top1_effect'] = top1(d)
+        r['mag3sigma'], r['mag_detail'] = magnitude_check(d, truth, eff)
+    if kind == 'ooc':
+        want = set(truth['unexplained_axes'])
+        r['ooc_axes'] = sorted(want)
+        r['pass'] = (not sel) and want <= une
+        r['nothing_selected'] = not sel
+        r['named'] = want <= une
+        r['extra_unexplained'] = sorted(une - want)
+    if kind in ('null', 'stochastic', 'ooc_noise'):
+        r['nothing_selected'] = not sel
+        r['pass'] = (not sel) and (not une) if kind == 'null' else (not sel)
+    return r
+
+
+def simulate_log(imuforge, case_dir, truth, work, name, campaign_path=None):
+    """Second source: the same sensor through `imuforge simulate` with a campaign written in the documented
+    campaign format (docs/formats.md) that mirrors the blindgen scenario (instantaneous changes are not
+    possible there: the table moves with its rate/acceleration limits)."""
+    from campaign import write_campaign  # local module
+    d = os.path.join(work, 'sim', name)
+    os.makedirs(d, exist_ok=True)
+    camp = os.path.join(REPO, campaign_path) if campaign_path else os.path.join(d, 'campaign.json')
+    if not campaign_path:
+        write_campaign(truth['scenario'], camp, truth['seed'])
+    log = os.path.join(d, 'log.bin')
+    p = subprocess.run([imuforge, 'simulate', '--campaign', camp, '--sensor', os.path.join(case_dir, 'sensor.json'),
+                        '--seed', str(truth['seed']), '--out', log, '--quiet'], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    if p.returncode != 0:
+        return None, 'imuforge simulate exit %d: %s' % (p.returncode, p.stderr.decode(errors='replace').strip()[:300])
+    return log, d
+
+
+def summarise(rows):
+    S = {}
+    by = {}
+    for r in rows:
+        by.setdefault(r['category'], []).append(r)
+
+    def frac(xs):
+        xs = [x for x in xs if x is not None]
+        return (sum(1 for x in xs if x) / len(xs)) if xs else float('nan')
+
+    rnd = [r for r in by.get('random', []) if 'error' not in r]
+    if rnd:
+        rec = [r['recall'] for r in rnd if r['recall'] is not None]
+        S['random.n'] = len(rnd)
+        S['random.mean_recall'] = sum(rec) / len(rec) if rec else float('nan')
+        rd = [r['recall_detectable'] for r in rnd if r.get('recall_detectable') is not None]
+        S['random.mean_recall_detectable'] = sum(rd) / len(rd) if rd else float('nan')
+        S['random.frac_le1_false'] = frac([r['false'] <= 1 for r in rnd])
+        S['random.mean_false'] = sum(r['false'] for r in rnd) / len(rnd)
+        S['random.frac_chi2_after_le3'] = frac([r['max_chi2_after'] <= 3 for r in rnd])
+        S['random.frac_unexplained'] = frac([bool(r['unexplained']) for r in rnd])  # in-catalog cases: should stay low
+    for r in by.get('example', []):
+        if 'error' in r:
+            continue
+        cls = r['name'].split('-', 1)[1]
+        S['example.%s.recall' % cls] = r['recall']
+        S['example.%s.false' % cls] = r['false']
+        S['example.%s.max_chi2_after' % cls] = r['max_chi2_after']
+    sg = [r for r in by.get('single', []) if 'error' not in r]
+    if sg:
+        S['single.n'] = len(sg)
+        S['single.top1'] = frac([r['top1'] for r in sg])
+        S['single.mag3sigma'] = frac([r['mag3sigma'] for r in sg])
+        S['single.selected'] = frac([r['recall'] == 1 for r in sg])
+    oc = [r for r in by.get('ooc', []) if 'error' not in r]
+    if oc:
+        S['ooc.n'] = len(oc)
+        S['ooc.pass'] = frac([r['pass'] for r in oc])
+        S['ooc.nothing_selected'] = frac([r['nothing_selected'] for r in oc])
+        S['ooc.named'] = frac([r['named'] for r in oc])
+        S['ooc.mean_extra_unexplained_axes'] = sum(len(r['extra_unexplained']) for r in oc) / len(oc)
+    nl = [r for r in by.get('null', []) if 'error' not in r]
+    if nl:
+        S['null.n'] = len(nl)
+        S['null.pass'] = frac([r['pass'] for r in nl])
+    st = [r for r in by.get('stochastic', []) if 'error' not in r]
+    if st:
+        S['stochastic.n'] = len(st)
+        S['stochastic.nothing_selected'] = frac([r['nothing_selected'] for r in st])
+    on = [r for r in by.get('ooc_noise', []) if 'error' not in r]
+    if on:
+        S['ooc_noise.nothing_selected'] = frac([r['nothing_selected'] for r in on])
+    for cat in ('null', 'stochastic', 'ooc', 'single'):
+        xs = [r for r in by.get(cat, []) if 'error' not in r]
+        if xs:
+            S['%s.max_false' % cat] = max(r['false'] for r in xs)
+    S['errors'] = sum(1 for r in rows if 'error' in r)
+    return S
+
+
+def fmt_num(v):
+    if v is None:
+        return '-'
+    if isinstance(v, float):
+        if math.isnan(v):
+            return 'nan'
+        return '%.3g' % v
+    return str(v)
+
+
+def print_table(rows, S, out=sys.stdout):
+    w = out.write
+    w('\n%-34s %-10s %6s %5s  %-40s %s\n' % ('case', 'category', 'recall', 'false', 'missed / false effects', 'other'))
+    for r in rows:
+        if 'error' in r:
+            w('%-34s %-10s ERROR %s\n' % (r['name'], r['category'], r['error']))
+            continue
+        other = 'chi2_after<=%.3g' % r['max_chi2_after'] if r['max_chi2_after'] == r['max_chi2_after'] else ''
+        if 'top1' in r:
+            other += ' top1=%s(%s) mag3s=%s' % ('Y' if r['top1'] else 'N', r['top1_effect'], 'Y' if r['mag3sigma'] else 'N')
+        if r['category'] in ('ooc', 'null', 'stochastic', 'ooc_noise'):
+            other += ' pass=%s unexplained=%s' % ('Y' if r.get('pass') else 'N', ','.join(r['unexplained']) or '-')
+            if r['category'] == 'ooc':
+                other += ' want=%s' % ','.join(r['ooc_axes'])
+        mf = ' '.join(['-%s%s' % (m, '(snr %g)' % r['missed_snr'][m] if m in r.get('missed_snr', {}) else '') for m in r['missed']] +
+                      ['+' + m for m in r['false_effects']])
+        w('%-34s %-10s %6s %5d  %-40s %s\n' % (r['name'][:34], r['category'], fmt_num(r['recall']), r['false'], mf, other))
+    w('\n%-34s %10s %10s  %s\n' % ('figure', 'measured', 'target', 'verdict'))
+    for k in sorted(S):
+        tgt = TARGETS.get(k)
+        if tgt:
+            v = S[k]
+            met = (v is not None and v == v and ((v >= tgt[0]) if tgt[1] == 'min' else (v <= tgt[0])))
+            w('%-34s %10s %10s  %s\n' % (k, fmt_num(v), ('>= ' if tgt[1] == 'min' else '<= ') + fmt_num(tgt[0]), 'met' if met else 'NOT met'))
+        else:
+            w('%-34s %10s\n' % (k, fmt_num(S[k])))
+
+
+def check_floors(S, floors_path):
+    """Regression floors: figures the current diagnosis reaches. Each entry {figure: [floor, 'min'|'max']}."""
+    floors = json.load(open(floors_path))
+    bad = []
+    for k, v in floors.items():
+        if k.startswith('_'):
+            continue
+        lim, how = v
+        m = S.get(k)
+        if m is None or m != m:
+            bad.append('%s: not measured (floor %s)' % (k, lim))
+        elif (how == 'min' and m < lim) or (how == 'max' and m > lim):
+            bad.append('%s = %s, floor %s %s' % (k, fmt_num(m), '>=' if how == 'min' else '<=', lim))
+    for k, (t, how) in TARGETS.items():
+        m = S.get(k)
+        if m is not None and m == m and ((how == 'min' and m < t) or (how == 'max' and m > t)):
+            print('gap to the issue-12 target: %s = %s (target %s %s)' % (k, fmt_num(m), '>=' if how == 'min' else '<=', t))
+    return bad
+
+
+def selftest():
+    """The scorer on hand-written diagnosis.json fragments (so the floors mean what they say)."""
+    truth = {'kind': 'ooc', 'beyond_model': [], 'unexplained_axes': ['gyro.x'], 'parameters': {}, 'snr': {}}
+    d = {'selected': [], 'unexplained': [{'axis': 'gyro.x', 'chi2_dof_after': 40.0, 'signature': [{'input': 'cos(tbl_angle_2)', 'correlation': 0.93}]}],
+         'gap_after': {'gyro.x': {'heldout_chi2_dof': 40.0}}}
+    ok = score(truth, d)['pass'] is True
+    ok &= score(truth, {'selected': [], 'gap_after': {}})['pass'] is False                       # key absent = not flagged
+    ok &= score(truth, dict(d, selected=[{'sensor': 'gyro', 'effect': 'g2_sensitivity'}]))['pass'] is False
+    t2 = {'kind': 'random', 'beyond_model': ['gyro.g_sensitivity', 'accel.timing'], 'unexplained_axes': [], 'parameters': {},
+          'snr': {'gyro.g_sensitivity': 50.0, 'accel.timing': 3.0}}
+    r = score(t2, {'selected': [{'sensor': 'gyro', 'effect': 'g_sensitivity'}, {'sensor': 'gyro', 'effect': 'temp_rate'},
+                                {'sensor': 'gyro', 'effect': 'bias_instability'}], 'gap_after': {}})
+    ok &= r['recall'] == 0.5 and r['recall_detectable'] == 1.0 and r['false'] == 1   # stochastic findings are not false effects
+    t3 = {'kind': 'single', 'beyond_model': ['gyro.g_sensitivity'], 'unexplained_axes': [], 'snr': {},
+          'parameters': {'gyro.g_sensitivity.xz': 1e-4}}
+    d3 = {'selected': [{'sensor': 'gyro', 'effect': 'g_sensitivity'}], 'gap_after': {},
+          'ranking': [{'sensor': 'gyro', 'effect': 'g_sensitivity', 'excitable': True, 'magnitude': []}],
+          'parameters': [{'name': 'gyro.g_sensitivity.xz', 'value': 1.05e-4, 'sigma': 1e-6}]}
+    r3 = score(t3, d3)
+    ok &= r3['top1'] and not r3['mag3sigma']                                                  # 5 sigma off
+    d3['parameters'][0]['sigma'] = 2e-6
+    ok &= score(t3, d3)['mag3sigma']
+    print('battery scorer selftest: %s' % ('ok' if ok else 'FAIL'))
+    return 0 if ok else 1
+
+
+def main(argv):
+    if argv[:1] == ['selftest']:
+        return selftest()
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument('--imuforge', required=True)
+    ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full'])
+    ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
+    ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
+    ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
+    ap.add_argument('--only', help='comma-separated substrings of case names')
+    ap.add_argument('--reuse', action='store_true', help='use cached cases even if the generator changed since (re-score old cases)')
+    ap.add_argument('--diag-tag', default='diag', help='output folder name per case (keeps several diagnoses side by side)')
+    ap.add_argument('--json', help='write per-case scores and the summary here')
+    ap.add_argument('--floors', help='regression floors JSON: exit 1 when a figure is below its floor')
+    a = ap.parse_args(argv)
+    os.makedirs(a.work, exist_ok=True)
+    rows = []
+    t_start = time.time()
+    for name, kind, seed, opt in suite(a.suite):
+        if a.only and not any(s in name for s in a.only.split(',')):
+            continue
+        cat = kind
+        row = {'name': name, 'category': cat}
+        try:
+            if 'campaign' in opt and a.source != 'simulate':
+                continue  # a campaign file only drives imuforge simulate
+            d, truth = make(a.work, name, kind, seed, {k: v for k, v in opt.items() if k != 'campaign'}, a.format, a.reuse)
+            log = os.path.join(d, 'log.' + a.format)
+            out = os.path.join(d, a.diag_tag)
+            if a.source == 'simulate':
+                if truth['out_of_catalog'] or truth['noise_extra'] or kind == 'ooc_noise':
+                    continue  # the simulator cannot express these
+                log, sd = simulate_log(a.imuforge, d, truth, a.work, name, opt.get('campaign'))
+                if log is None:
+                    raise RuntimeError(sd)
+                out = os.path.join(sd, a.diag_tag)
+            dj, info = run_diagnose(a.imuforge, log, a.model, out)
+            if dj is None:
+                raise RuntimeError(info)
+            if opt.get('campaign'):
+                truth = dict(truth, snr={})  # blindgen's detectability is for its own scenario, not this campaign
+            row.update(score(truth, dj))
+            row['diag_s'] = info
+        except Exception as e:  # a failed case is reported, never skipped silently
+            row['error'] = '%s: %s' % (type(e).__name__, e)
+        rows.append(row)
+        r = row
+        if 'error' in r:
+            print('%-34s ERROR %s' % (name, r['error']), flush=True)
+        else:
+            print('%-34s recall=%s false=%d sel=[%s] missed=[%s] unexplained=[%s]' % (
+                name, fmt_num(r['recall']), r['false'], ' '.join(r['selected']), ' '.join(r['missed']), ' '.join(r['unexplained'])), flush=True)
+    S = summarise(rows)
+    print_table(rows, S)
+    print('\n%d cases, %.0f s wall' % (len(rows), time.time() - t_start))
+    if a.json:
+        with open(a.json, 'w') as f:
+            json.dump({'suite': a.suite, 'source': a.source, 'model': a.model, 'summary': S, 'cases': rows}, f, indent=1)
+    if a.floors:
+        bad = check_floors(S, a.floors)
+        if bad:
+            print('REGRESSION below the floors of %s:\n  %s' % (a.floors, '\n  '.join(bad)))
+            return 1
+        print('all figures at or above the floors of %s' % a.floors)
+    return 0 if S['errors'] == 0 else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main(sys.argv[1:]))
