@@ -389,6 +389,23 @@ TEST_F(MalformedInput, JsonFiles) {
   check_all(v);
 }
 
+TEST_F(MalformedInput, CoefficientTable) {
+  std::vector<Case> v;
+  const std::string t = slurp(g_table);
+  auto add = [&](const std::string& broken, const std::string& path, const std::string& says) {
+    v.push_back({"coefficient table", broken, path,
+                 "compensate --table " + path + " --in " + kWork + "/good/log.bin --out OUT/comp.csv", says});
+  };
+  add("truncated", bad("trunc.table", t.substr(0, t.size() / 2)), "invalid coefficient table");
+  std::string crc = t;
+  crc[crc.size() / 2] = static_cast<char>(crc[crc.size() / 2] ^ 0x5a);
+  add("a corrupted byte (CRC)", bad("crc.table", crc), "invalid coefficient table");
+  add("empty file", bad("empty.table", ""), "invalid coefficient table");
+  add("binary file (not a table)", bad("elf.table", binary_junk()), "invalid coefficient table");
+  add("2 GiB file (sparse)", bad_sparse("2g.table", t), "invalid coefficient table");
+  check_all(v);
+}
+
 TEST_F(MalformedInput, Journal) {
   // `run --resume DIR` reads DIR/journal.log first.
   std::vector<Case> v;
