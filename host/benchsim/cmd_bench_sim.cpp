@@ -26,7 +26,11 @@ int run_bench_sim(int argc, char** argv) {
   so.tcp_port = 1502;
   double time_scale = 1.0, duration_s = 0.0;
   std::string table_map = "imuforge-table.json", chamber_map = "imuforge-chamber.json";
-  std::string campaign, sensor, bus, world_json;
+  std::string campaign, sensor, world_json;
+  std::vector<std::string> buses;
+  int slots = 1;
+  double nest_sigma_deg = 0.0;
+  std::vector<int> dead_slots;
   uint64_t seed = 1, serial = 1;
   int node_id = 1;
   bool no_tcp = false, stdin_eof_exits = false;
@@ -43,7 +47,13 @@ int run_bench_sim(int argc, char** argv) {
   app.add_option("--campaign", campaign, "campaign file: table axes, limits, mount, site, chamber limits");
   app.add_option("--world", world_json, "world JSON (overrides; see docs/modbus.md)");
   app.add_option("--sensor", sensor, "sensor model JSON for the virtual IMU");
-  app.add_option("--bus", bus, "CAN bus for the virtual IMU: virtual:NAME or socketcan:IFNAME (none: no IMU)");
+  app.add_option("--bus", buses, "CAN bus for the virtual IMUs: virtual:NAME or socketcan:IFNAME (none: no IMU); "
+                                 "repeat for several buses, slots go round-robin");
+  app.add_option("--slots", slots, "virtual IMUs (one per nest): node, serial and seed count up from --node, "
+                                   "--serial, --seed")->check(CLI::Range(1, 127));
+  app.add_option("--nest-error-deg", nest_sigma_deg, "1σ of each unit's rotation in its nest, per axis, drawn per slot")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--dead-slot", dead_slots, "slot (1-based) whose node never answers; repeatable");
   app.add_option("--seed", seed, "seed of the sensor's noise (default 1)");
   app.add_option("--serial", serial, "serial number of the virtual IMU (default 1)");
   app.add_option("--node", node_id, "CAN node id of the virtual IMU (default 1)")->check(CLI::Range(1, 127));
@@ -91,26 +101,31 @@ int run_bench_sim(int argc, char** argv) {
     std::fprintf(stderr, "imuforge bench-sim: %s\n", e.what());
     return app::kExitPeer;
   }
-  std::unique_ptr<benchsim::ImuLink> imu;
-  if (!bus.empty()) {
+  std::vector<std::unique_ptr<benchsim::ImuLink>> imus;
+  std::string bus_list;
+  for (const auto& b : buses) bus_list += (bus_list.empty() ? "" : ",") + b;
+  if (!buses.empty()) {
     try {
-      benchsim::ImuOptions io;
-      io.bus = bus;
-      io.sensor_path = sensor;
-      io.seed = seed;
-      io.serial = serial;
-      io.node_id = node_id;
-      imu = benchsim::start_imu(*bench, io);
+      benchsim::SlotPlan plan;
+      plan.slots = slots;
+      plan.buses = buses;
+      plan.sensor_path = sensor;
+      plan.seed = seed;
+      plan.first_serial = serial;
+      plan.first_node = node_id;
+      plan.nest_sigma_rad = nest_sigma_deg * M_PI / 180.0;
+      plan.dead = dead_slots;
+      for (const auto& io : benchsim::slot_imus(plan)) imus.push_back(benchsim::start_imu(*bench, io));
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "imuforge bench-sim: virtual IMU on %s: %s\n", bus.c_str(), e.what());
+      std::fprintf(stderr, "imuforge bench-sim: virtual IMU on %s: %s\n", bus_list.c_str(), e.what());
       return app::kExitPeer;
     }
   }
 
   std::string tcp = server.tcp_port() > 0 ? so.bind + ":" + std::to_string(server.tcp_port()) : "-";
   std::string rtu = server.rtu_path().empty() ? "-" : server.rtu_path();
-  std::printf("ready tcp=%s rtu=%s unit=%d time_scale=%g bus=%s\n", tcp.c_str(), rtu.c_str(), so.unit_id, time_scale,
-              bus.empty() ? "-" : bus.c_str());
+  std::printf("ready tcp=%s rtu=%s unit=%d time_scale=%g bus=%s slots=%zu\n", tcp.c_str(), rtu.c_str(), so.unit_id,
+              time_scale, bus_list.empty() ? "-" : bus_list.c_str(), imus.size());
   std::fflush(stdout);
 
   if (stdin_eof_exits) {
@@ -131,7 +146,7 @@ int run_bench_sim(int argc, char** argv) {
     }
     if (duration_s > 0 && std::chrono::steady_clock::now() >= t_end) break;
   }
-  if (imu) imu->stop();
+  for (auto& i : imus) i->stop();
   server.stop();
   std::fprintf(stderr, "imuforge bench-sim: stopped after %.1f simulated s, %llu Modbus requests, %llu table commands\n",
                bench->now_s(), static_cast<unsigned long long>(server.requests()),

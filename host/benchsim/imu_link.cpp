@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <Eigen/Geometry>
+
 #include "host/model/measure.h"
 #include "host/model/sensor_model.h"
 #include "host/sim/noise.h"
@@ -37,6 +39,7 @@ struct ImuSampler::Impl {
   sim::Rng rng[6];
   double turn_on[6] = {};
   double q[6] = {}, sat[6] = {};
+  Eigen::Matrix3d nest = Eigen::Matrix3d::Identity();  // Exp([e×]) of the nest error
 };
 
 namespace {
@@ -44,8 +47,11 @@ namespace {
 constexpr double kNoiseDt_s = 0.001;
 }  // namespace
 
-ImuSampler::ImuSampler(Bench& bench, const std::string& sensor_path, uint64_t seed) : impl_(std::make_unique<Impl>()) {
+ImuSampler::ImuSampler(Bench& bench, const std::string& sensor_path, uint64_t seed, const Eigen::Vector3d& nest_error_rad)
+    : impl_(std::make_unique<Impl>()) {
   impl_->bench = &bench;
+  if (nest_error_rad.norm() > 0)
+    impl_->nest = Eigen::AngleAxisd(nest_error_rad.norm(), nest_error_rad.normalized()).toRotationMatrix();
   if (!sensor_path.empty()) {
     impl_->m = model::load_sensor_model(sensor_path);
     impl_->have_model = true;
@@ -92,6 +98,9 @@ hal::ImuRawSample ImuSampler::sample(double t_s) {
     impl_->bench->world().advance_to(t_s);
     tr = impl_->bench->world().imu_truth();
   }
+  tr.f_mps2 = impl_->nest * tr.f_mps2;
+  tr.w_rad_s = impl_->nest * tr.w_rad_s;
+  tr.wdot_rad_s2 = impl_->nest * tr.wdot_rad_s2;
   Eigen::Vector3d ya = tr.f_mps2, yg = tr.w_rad_s;
   int abits = 16, gbits = 16;
   if (impl_->have_model) {
@@ -126,11 +135,33 @@ hal::ImuRawSample ImuSampler::sample(double t_s) {
   return s;
 }
 
+std::vector<ImuOptions> slot_imus(const SlotPlan& p) {
+  if (p.buses.empty()) throw std::invalid_argument("bench-sim slots: no CAN bus");
+  if (p.slots < 1) throw std::invalid_argument("bench-sim slots: --slots must be >= 1");
+  if (p.first_node + p.slots - 1 > 127)
+    throw std::invalid_argument("bench-sim slots: node ids " + std::to_string(p.first_node) + ".." +
+                                std::to_string(p.first_node + p.slots - 1) + " go beyond 127");
+  std::vector<ImuOptions> out;
+  for (int k = 0; k < p.slots; ++k) {
+    if (std::find(p.dead.begin(), p.dead.end(), k + 1) != p.dead.end()) continue;
+    ImuOptions o;
+    o.bus = p.buses[static_cast<std::size_t>(k) % p.buses.size()];
+    o.sensor_path = p.sensor_path;
+    o.seed = p.seed + static_cast<uint64_t>(k);
+    o.serial = p.first_serial + static_cast<uint64_t>(k);
+    o.node_id = p.first_node + k;
+    sim::Rng rng(o.seed * 0x9E3779B97F4A7C15ULL + 7);
+    for (int i = 0; i < 3; ++i) o.nest_error_rad[i] = p.nest_sigma_rad * rng.normal();
+    out.push_back(o);
+  }
+  return out;
+}
+
 #if defined(IMUFORGE_HAVE_VIMU)
 namespace {
 class VimuLink final : public ImuLink {
  public:
-  VimuLink(Bench& bench, const ImuOptions& o) : sampler_(bench, o.sensor_path, o.seed) {
+  VimuLink(Bench& bench, const ImuOptions& o) : sampler_(bench, o.sensor_path, o.seed, o.nest_error_rad) {
     vimu::VirtualImuConfig cfg;
     cfg.bus = o.bus;
     cfg.serial = o.serial;

@@ -7,6 +7,9 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
+
+#include <Eigen/Core>
 
 #include "hal/sensor.h"
 #include "host/benchsim/bench.h"
@@ -23,7 +26,10 @@ class ImuLink {
 // compiled sensor model; an empty sensor path means an ideal sensor with default LSBs (docs/modbus.md).
 class ImuSampler {
  public:
-  ImuSampler(Bench& bench, const std::string& sensor_path, uint64_t seed);
+  // nest_error_rad: the unit's small rotation in its nest (IMU frame; the sensed vectors become
+  // Exp([e×])·v, the convention of physics::TableGeometry's mount error for an identity nominal mount).
+  ImuSampler(Bench& bench, const std::string& sensor_path, uint64_t seed,
+             const Eigen::Vector3d& nest_error_rad = Eigen::Vector3d::Zero());
   ~ImuSampler();
   hal::ImuRawSample sample(double t_s);
   double accel_lsb() const;
@@ -40,7 +46,24 @@ struct ImuOptions {
   uint64_t seed = 1;
   uint64_t serial = 1;
   int node_id = 1;
+  Eigen::Vector3d nest_error_rad = Eigen::Vector3d::Zero();  // see ImuSampler
 };
+
+// A station's worth of virtual IMUs (issue 14): `slots` units, slot k (0-based) on buses[k % buses],
+// node first_node + k, serial first_serial + k, noise/turn-on seed seed + k (its own sensor realisation),
+// and a nest rotation drawn per axis from N(0, nest_sigma_rad) with its own seed. Slots listed in `dead`
+// (1-based, as printed) are left out: a node that never answers. Throws std::invalid_argument on no bus,
+// slots < 1, or node ids beyond 127.
+struct SlotPlan {
+  int slots = 1;
+  std::vector<std::string> buses;
+  std::string sensor_path;
+  uint64_t seed = 1, first_serial = 1;
+  int first_node = 1;
+  double nest_sigma_rad = 0.0;
+  std::vector<int> dead;
+};
+std::vector<ImuOptions> slot_imus(const SlotPlan& plan);
 
 // Start the virtual IMU. Throws std::runtime_error (bad bus, bad sensor file, no vimu in this build).
 std::unique_ptr<ImuLink> start_imu(Bench& bench, const ImuOptions& opt);

@@ -3,6 +3,9 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
 #include <map>
 #include <numeric>
 #include <set>
@@ -131,6 +134,9 @@ struct Block {
   double z[kNumAxes] = {};
   // mean features
   double t = 0, T = kNaN, Tdot = 0, d = 0, f[3] = {}, w[3] = {}, absw = 0;
+  double ww[3] = {}, ff[3][3] = {};          // block means of ω_k² and f_k f_l (signatures)
+  double sin_a[3] = {}, cos_a[3] = {};       // block means of sin/cos of the reported table angles
+  long n_a[3] = {};
   bool is_static = false;
   double v[kNumAxes] = {};  // variance of the block mean per axis
 };
@@ -147,6 +153,94 @@ struct BlockAcc {
   long bin_n = 0;
 };
 
+// Re-evaluation of the reference at a shifted time (docs/diagnosis.md § timing): a sensor whose output at t
+// reads its input at t − δ(t), δ = latency + ppm·1e-6·(t − t_first), is compared with the reference
+// interpolated at t − δ(t), not with a first-order correction, so an accumulated clock error of a second
+// is as exact as a latency of a millisecond.
+struct TimeShift {
+  double latency_s = 0, ppm = 0;
+  bool active() const { return latency_s != 0.0 || ppm != 0.0; }
+  double at(double t_rel_s) const { return latency_s + ppm * 1e-6 * t_rel_s; }
+};
+
+// The reference rows of a sliding time window, fed by a read-ahead wrapper around the source.
+class ShiftedReference {
+ public:
+  ShiftedReference(SampleSource& src, double lookahead_s, double history_s, double fs)
+      : src_(src), ahead_(lookahead_s), hist_(history_s), h_(1.0 / fs), gap_(5.0 / fs) {}
+  void rewind() {
+    src_.rewind();
+    q_.clear();
+    ref_.clear();
+    eof_ = false;
+  }
+  bool next(Sample& s) {
+    while (!eof_ && (q_.empty() || q_.back().t_s <= q_.front().t_s + ahead_)) {
+      Sample r;
+      if (!src_.next(r)) {
+        eof_ = true;
+        break;
+      }
+      if (r.has_ref) ref_.push_back(Ref{r.t_s, {r.f[0], r.f[1], r.f[2]}, {r.w[0], r.w[1], r.w[2]}});
+      q_.push_back(r);
+    }
+    if (q_.empty()) return false;
+    s = q_.front();
+    q_.pop_front();
+    while (ref_.size() > 2 && ref_[1].t_s < s.t_s - hist_) ref_.pop_front();
+    return true;
+  }
+  // Reference (f, w) and its derivatives at time tq, from the rows in the window (clamped at its ends).
+  void eval(double tq, model::MeasureInput& in) const {
+    double f0[3], w0[3], f1[3], w1[3];
+    at(tq - h_, f0, w0);
+    at(tq + h_, f1, w1);
+    double f[3], w[3];
+    at(tq, f, w);
+    for (int k = 0; k < 3; ++k) {
+      in.f[k] = f[k];
+      in.w[k] = w[k];
+      in.fdot[k] = (f1[k] - f0[k]) / (2.0 * h_);
+      in.wdot[k] = (w1[k] - w0[k]) / (2.0 * h_);
+    }
+  }
+
+ private:
+  struct Ref {
+    double t_s;
+    double f[3], w[3];
+  };
+  void at(double tq, double* f, double* w) const {
+    if (ref_.empty()) {
+      for (int k = 0; k < 3; ++k) f[k] = w[k] = 0.0;
+      return;
+    }
+    auto it = std::lower_bound(ref_.begin(), ref_.end(), tq, [](const Ref& r, double t) { return r.t_s < t; });
+    const Ref* a;
+    const Ref* b;
+    if (it == ref_.begin()) a = b = &*it;
+    else if (it == ref_.end()) a = b = &ref_.back();
+    else {
+      b = &*it;
+      a = &*(it - 1);
+      if (b->t_s - a->t_s > gap_) {  // a gap in the reference: take the nearer side, never bridge it
+        if (tq - a->t_s < b->t_s - tq) b = a;
+        else a = b;
+      }
+    }
+    const double u = b->t_s > a->t_s ? (tq - a->t_s) / (b->t_s - a->t_s) : 0.0;
+    for (int k = 0; k < 3; ++k) {
+      f[k] = a->f[k] + u * (b->f[k] - a->f[k]);
+      w[k] = a->w[k] + u * (b->w[k] - a->w[k]);
+    }
+  }
+  SampleSource& src_;
+  double ahead_, hist_, h_, gap_;
+  std::deque<Sample> q_;
+  std::deque<Ref> ref_;
+  bool eof_ = false;
+};
+
 struct Pass1 {
   std::vector<Block> blocks;
   std::array<AllanAccumulator, kNumAxes> allan;
@@ -156,8 +250,18 @@ struct Pass1 {
   int n_units = 0;
 };
 
-Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const std::vector<ParamId> ids[2],
-                bool want_regressors) {
+Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const std::vector<ParamId> ids[2],
+                bool want_regressors, const TimeShift shift[2] = nullptr) {
+  const TimeShift none[2];
+  if (!shift) shift = none;
+  const double dur_all = p0.t_last - p0.t_first;
+  double ahead = 2.0 / p0.fs, back = 2.0 / p0.fs;
+  for (int s = 0; s < 2; ++s)
+    for (double tt : {0.0, dur_all}) {
+      ahead = std::max(ahead, -shift[s].at(tt) + 4.0 / p0.fs);
+      back = std::max(back, shift[s].at(tt) + 4.0 / p0.fs);
+    }
+  ShiftedReference src(src_in, ahead, back, p0.fs);
   Pass1 out;
   const double dur = p0.t_last - p0.t_first;
   const double min_block_s = std::max(2.0 / p0.fs, dur / std::max(1, opt.max_blocks));
@@ -178,8 +282,18 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
   std::array<std::vector<double>, kNumAxes> run_series;
   int run_unit = -1;
   double run_Tmin = 1e300, run_Tmax = -1e300;
+  // A static run loses opt.settle_s at both ends: an output that lags (or leads) its reference by a latency
+  // or an accumulated clock error still moves there, and a few such samples would read as drift noise.
+  const std::size_t settle_bins = static_cast<std::size_t>(std::ceil(opt.settle_s * p0.fs / static_cast<double>(m0)));
   auto flush_run = [&]() {
     for (int a = 0; a < kNumAxes; ++a) {
+      auto& rs = run_series[static_cast<std::size_t>(a)];
+      if (rs.size() > 2 * settle_bins) {
+        rs.erase(rs.end() - static_cast<long>(settle_bins), rs.end());
+        rs.erase(rs.begin(), rs.begin() + static_cast<long>(settle_bins));
+      } else {
+        rs.clear();
+      }
       out.allan[static_cast<std::size_t>(a)].add_series(run_series[static_cast<std::size_t>(a)]);
       run_series[static_cast<std::size_t>(a)].clear();
     }
@@ -199,6 +313,14 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
     for (int k = 0; k < 3; ++k) {
       b.f[k] /= n;
       b.w[k] /= n;
+      b.ww[k] /= n;
+      for (int l = 0; l < 3; ++l) b.ff[k][l] /= n;
+      if (b.n_a[k] > 0) {
+        b.sin_a[k] /= static_cast<double>(b.n_a[k]);
+        b.cos_a[k] /= static_cast<double>(b.n_a[k]);
+      } else {
+        b.sin_a[k] = b.cos_a[k] = kNaN;
+      }
     }
     b.T = acc.nT > 0 ? acc.sT / static_cast<double>(acc.nT) : kNaN;
     double frange = 0;
@@ -234,6 +356,7 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
 
   // One-sample lookahead for the input derivatives (size effect, timing).
   Sample prev, cur, nxt;
+  double zprev[kNumAxes] = {};
   bool have_prev = false, have_cur = false, have_next = false;
   src.rewind();
   have_cur = src.next(cur);
@@ -260,6 +383,13 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
       in.Tdot_C_s = hasT ? p0.tdot_at(cur.t_s) : 0.0;
       in.d = d;
       in.t_s = cur.t_s - p0.t_first;
+      // Per sensor: the reference at the sensor's shifted time (identical to `in` without a shift).
+      model::MeasureInput ins[2] = {in, in};
+      double us[kNumAxes];
+      for (int s = 0; s < 2; ++s) {
+        if (shift[s].active()) src.eval(cur.t_s - shift[s].at(in.t_s), ins[s]);
+        for (int k = 0; k < 3; ++k) us[3 * s + k] = s == 0 ? ins[0].f[k] : ins[1].w[k];
+      }
 
       // Block cutting.
       if (cur.segment != last_seg || !last_had_ref || cur.t_s - last_ref_t > 5.0 / p0.fs) ++unit;
@@ -292,13 +422,13 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
       Block& b = acc.b;
       if (want_regressors) {
         for (int s = 0; s < 2; ++s) {
-          model::regressors(static_cast<Sensor>(s), ids[s], in, opt.T_ref_C, J[s]);
+          model::regressors(static_cast<Sensor>(s), ids[s], ins[s], opt.T_ref_C, J[s]);
           b.J[s] += J[s];
         }
       }
       double z[kNumAxes];
       for (int a = 0; a < kNumAxes; ++a) {
-        z[a] = cur.y[a] - nominal_input(cur.f, cur.w, a);
+        z[a] = cur.y[a] - us[a];
         b.z[a] += z[a];
         acc.bin_sum[static_cast<std::size_t>(a)] += z[a];
       }
@@ -311,11 +441,12 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
       }
       if (b.n > 0 && have_prev && prev.has_ref) {
         for (int a = 0; a < kNumAxes; ++a) {
-          const double zp = prev.y[a] - nominal_input(prev.f, prev.w, a);
+          const double zp = zprev[a];
           out.dz2[static_cast<std::size_t>(a)] += (z[a] - zp) * (z[a] - zp);
         }
         ++out.ndz;
       }
+      for (int a = 0; a < kNumAxes; ++a) zprev[a] = z[a];
       ++b.n;
       b.t1 = cur.t_s;
       b.t += in.t_s;
@@ -325,6 +456,13 @@ Pass1 run_pass1(SampleSource& src, const Pass0& p0, const Options& opt, const st
       for (int k = 0; k < 3; ++k) {
         b.f[k] += cur.f[k];
         b.w[k] += cur.w[k];
+        b.ww[k] += cur.w[k] * cur.w[k];
+        for (int l = 0; l < 3; ++l) b.ff[k][l] += cur.f[k] * cur.f[l];
+        if (std::isfinite(cur.table_angle_rad[k])) {
+          b.sin_a[k] += std::sin(cur.table_angle_rad[k]);
+          b.cos_a[k] += std::cos(cur.table_angle_rad[k]);
+          ++b.n_a[k];
+        }
         wn += cur.w[k] * cur.w[k];
         acc.fmin[k] = std::min(acc.fmin[k], cur.f[k]);
         acc.fmax[k] = std::max(acc.fmax[k], cur.f[k]);
@@ -361,8 +499,10 @@ struct AxisData {
   int axis = 0;
   Sensor sensor = Sensor::kAccel;
   std::vector<ParamId> cols;   // parameters acting on this axis (catalog ids)
-  Eigen::MatrixXd X;           // B × P block-mean regressors
-  Eigen::VectorXd z, v;        // block means of y − u, and their variances
+  Eigen::MatrixXd X;           // B × P block-mean regressors, whitened (Kalman innovations, noise_model.h)
+  Eigen::VectorXd z, v;        // whitened block means of y − u, and their innovation variances
+  Eigen::MatrixXd Xr;          // the same before whitening (cells, plots, signatures), with
+  Eigen::VectorXd zr, vr;      // the marginal variance of each block mean
   // Per fold and total: H = Σ x xᵀ/v, g = Σ x z / v, q = Σ z²/v, W = Σ 1/v, nb.
   std::vector<Eigen::MatrixXd> Hk;
   std::vector<Eigen::VectorXd> gk;
@@ -506,9 +646,9 @@ void heldout_blocks(const AxisData& ad, const std::vector<int>& sel, int folds, 
     for (int b = 0; b < B; ++b) {
       if (blocks[static_cast<std::size_t>(b)].fold != k) continue;
       Eigen::VectorXd x(p);
-      for (int i = 0; i < p; ++i) x[i] = ad.X(b, f.kept[static_cast<std::size_t>(i)]);
-      r[static_cast<std::size_t>(b)] = ad.z[b] - (p ? x.dot(f.theta) : 0.0);
-      pv[static_cast<std::size_t>(b)] = ad.v[b] + (p ? x.dot(f.cov * x) : 0.0);
+      for (int i = 0; i < p; ++i) x[i] = ad.Xr(b, f.kept[static_cast<std::size_t>(i)]);
+      r[static_cast<std::size_t>(b)] = ad.zr[b] - (p ? x.dot(f.theta) : 0.0);
+      pv[static_cast<std::size_t>(b)] = ad.vr[b] + (p ? x.dot(f.cov * x) : 0.0);
     }
   }
 }
@@ -524,6 +664,68 @@ std::vector<int> cols_for(const AxisData& ad, const std::set<ParamId>& model_ids
   return sel;
 }
 
+// Weighted correlation of the held-out block residuals with simple functions of the logged inputs, best
+// first: what an out-of-catalog effect follows.
+std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks, const std::vector<double>& r,
+                                               const std::vector<double>& pv) {
+  const char* ax = "xyz";
+  std::vector<std::pair<std::string, std::function<double(const Block&)>>> feats;
+  for (int k = 0; k < 3; ++k) feats.push_back({std::string("f_") + ax[k], [k](const Block& b) { return b.f[k]; }});
+  for (int k = 0; k < 3; ++k)
+    for (int l = k; l < 3; ++l)
+      feats.push_back({k == l ? std::string("f_") + ax[k] + "^2" : std::string("f_") + ax[k] + "*f_" + ax[l],
+                       [k, l](const Block& b) { return b.ff[k][l]; }});
+  for (int k = 0; k < 3; ++k) feats.push_back({std::string("w_") + ax[k], [k](const Block& b) { return b.w[k]; }});
+  for (int k = 0; k < 3; ++k) feats.push_back({std::string("w_") + ax[k] + "^2", [k](const Block& b) { return b.ww[k]; }});
+  feats.push_back({"T", [](const Block& b) { return b.T; }});
+  feats.push_back({"Tdot", [](const Block& b) { return b.Tdot; }});
+  feats.push_back({"time", [](const Block& b) { return b.t; }});
+  for (int k = 0; k < 3; ++k) {
+    feats.push_back({"sin(table angle " + std::to_string(k) + ")", [k](const Block& b) { return b.sin_a[k]; }});
+    feats.push_back({"cos(table angle " + std::to_string(k) + ")", [k](const Block& b) { return b.cos_a[k]; }});
+  }
+  // "segment": the residual's own per-segment mean (a constant per segment that no input explains).
+  std::map<int, std::pair<double, double>> seg;
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    auto& e = seg[blocks[b].unit];
+    e.first += r[b] / pv[b];
+    e.second += 1.0 / pv[b];
+  }
+  feats.push_back({"segment", [&seg](const Block& b) {
+                     const auto& e = seg.at(b.unit);
+                     return e.first / e.second;
+                   }});
+  std::vector<SignatureEntry> out;
+  for (const auto& [name, fn] : feats) {
+    double sw = 0, sx = 0, sy = 0;
+    for (std::size_t b = 0; b < blocks.size(); ++b) {
+      const double x = fn(blocks[b]);
+      if (!std::isfinite(x)) continue;
+      const double w = 1.0 / pv[b];
+      sw += w;
+      sx += w * x;
+      sy += w * r[b];
+    }
+    if (!(sw > 0)) continue;
+    const double mx = sx / sw, my = sy / sw;
+    double cxx = 0, cyy = 0, cxy = 0;
+    for (std::size_t b = 0; b < blocks.size(); ++b) {
+      const double x = fn(blocks[b]);
+      if (!std::isfinite(x)) continue;
+      const double w = 1.0 / pv[b];
+      cxx += w * (x - mx) * (x - mx);
+      cyy += w * (r[b] - my) * (r[b] - my);
+      cxy += w * (x - mx) * (r[b] - my);
+    }
+    if (!(cxx > 1e-30 * sw) || !(cyy > 0)) continue;
+    out.push_back({name, cxy / std::sqrt(cxx * cyy)});
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const SignatureEntry& a, const SignatureEntry& b) { return std::fabs(a.correlation) > std::fabs(b.correlation); });
+  if (out.size() > 6) out.resize(6);
+  return out;
+}
+
 double variable_of(const Block& b, const std::string& var, int axis) {
   if (var == "temp_C") return b.T;
   if (var == "dTdt_C_s") return b.Tdot;
@@ -536,6 +738,32 @@ double variable_of(const Block& b, const std::string& var, int axis) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------------
+double plausible_limit(const model::ParamInfo& p) {
+  const bool acc = p.sensor == Sensor::kAccel;
+  const double pw = p.power > 0 ? std::pow(10.0, -(p.power - 1)) : 1.0;  // each temperature power: ÷10
+  switch (p.effect) {
+    case Effect::kBias: return acc ? 2.0 : 0.2;
+    case Effect::kScale: return 0.1;
+    case Effect::kMisalign: return 0.05;
+    case Effect::kBiasTemp: return (acc ? 0.05 : 5e-3) * pw;
+    case Effect::kScaleTemp: return 1e-3 * pw;
+    case Effect::kMisalignTemp: return 1e-3 * pw;
+    case Effect::kScaleNonlinearity:
+      if (p.power == 2) return acc ? 1e-3 : 0.05;
+      return acc ? 1e-4 : 0.02;
+    case Effect::kScaleAsymmetry: return 0.02;
+    case Effect::kCrossCoupling: return acc ? 1e-3 : 5e-3;
+    case Effect::kGSensitivity: return 1e-3;
+    case Effect::kG2Sensitivity: return 2e-5;
+    case Effect::kSizeEffect: return 0.05;
+    case Effect::kTempHysteresis: return acc ? 0.1 : 0.01;
+    case Effect::kTempRate: return acc ? 0.5 : 0.05;
+    case Effect::kTiming: return p.component == "ppm" ? 1000.0 : 0.5;
+    default: return std::numeric_limits<double>::infinity();
+  }
+}
 
 // ---------------------------------------------------------------------------------------------------
 BaseModel basic_model() {
@@ -566,7 +794,8 @@ std::array<std::vector<AllanAccumulator::Point>, kNumAxes> static_allan(SampleSo
   return out;
 }
 
-DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options& opt) {
+namespace {
+DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Options& opt, const TimeShift shift[2]) {
   DiagnosisResult R;
   R.alpha = opt.alpha;
   R.base_effects = base.effect_names;
@@ -583,7 +812,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     throw DiagnosisError("no sample carries a reference (f_ref/w_ref): use reference-free mode (--mode reference-free)");
 
   std::vector<ParamId> ids[2] = {sensor_params(Sensor::kAccel), sensor_params(Sensor::kGyro)};
-  Pass1 p1 = run_pass1(src, p0, o, ids, true);
+  Pass1 p1 = run_pass1(src, p0, o, ids, true, shift);
   std::vector<Block>& blocks = p1.blocks;
   R.n_used = p1.n_used;
   R.n_blocks = static_cast<int>(blocks.size());
@@ -606,13 +835,30 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   if (!any_static)
     R.warnings.push_back("no static record long enough for an Allan deviation: the noise floor comes from sample-to-sample "
                          "differences and ignores correlated noise, so significance may be overstated");
+  // The stochastic model carried into the likelihood (noise_model.h): white + quantization + Gauss-Markov +
+  // rate random walk, fitted to the static Allan curve before any deterministic effect is looked at.
+  const double D_log = std::max(R.duration_s, 1e-9);
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto ua = static_cast<std::size_t>(a);
+    StochasticModel m = R.allan[ua].size() >= 2 ? fit_stochastic_model(R.allan[ua]) : StochasticModel{};
+    // Never below the white level implied by the data's sample-to-sample scatter (guards a degenerate fit).
+    if (p1.ndz > 0) {
+      const double wvar = 0.5 * p1.dz2[ua] / (2.0 * static_cast<double>(p1.ndz));
+      m.N = std::max(m.N, std::sqrt(wvar / p0.fs));
+    }
+    m.N = std::max(m.N, 1e-300);
+    R.stoch[ua] = m;
+    if (std::getenv("IMUFORGE_DIAG_TRACE"))
+      std::fprintf(stderr, "noise %s: N=%.3g Q=%.3g gm=%.3g/%.3gs K=%.3g (%d pts)\n", axis_name(a), m.N, m.Q, m.gm_sigma, m.gm_tau_s, m.K,
+                   m.n_points);
+    R.rw_prior_var[ua] = m.K * m.K * D_log / 6.0;  // a random walk's offset from its mean over the log
+  }
   for (auto& b : blocks) {
     const double tau = static_cast<double>(b.n) / p0.fs;
     for (int a = 0; a < kNumAxes; ++a) {
-      double v = R.noise[static_cast<std::size_t>(a)].terms.avar(tau);
-      // Never below the white level implied by the data's sample-to-sample scatter (guards a degenerate fit).
-      if (p1.ndz > 0) v = std::max(v, 0.5 * p1.dz2[static_cast<std::size_t>(a)] / (2.0 * static_cast<double>(p1.ndz)) / static_cast<double>(b.n));
-      b.v[a] = std::max(v, 1e-300);
+      const auto ua = static_cast<std::size_t>(a);
+      // Marginal variance of a block mean (cells, plots): white part + the whole correlated bias.
+      b.v[a] = std::max(block_covariance(R.stoch[ua], b.t, tau, b.t, tau, true, b.t, R.rw_prior_var[ua]), 1e-300);
     }
   }
 
@@ -700,6 +946,33 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       ad.z[b] = bl.z[a];
       ad.v[b] = bl.v[a];
     }
+    ad.Xr = ad.X;
+    ad.zr = ad.z;
+    ad.vr = ad.v;
+    // GLS: whiten each segment's block means by the Kalman filter over the correlated bias states. Units are
+    // contiguous in `blocks` and never straddle folds, so the fold sums below stay exact.
+    for (int b0 = 0; b0 < B;) {
+      int b1 = b0;
+      while (b1 < B && blocks[static_cast<std::size_t>(b1)].unit == blocks[static_cast<std::size_t>(b0)].unit) ++b1;
+      const int n = b1 - b0;
+      std::vector<double> tm(static_cast<std::size_t>(n)), du(static_cast<std::size_t>(n));
+      Eigen::MatrixXd rows(n, P + 1), innov(n, P + 1);
+      Eigen::VectorXd S(n);
+      for (int i = 0; i < n; ++i) {
+        const Block& bl = blocks[static_cast<std::size_t>(b0 + i)];
+        tm[static_cast<std::size_t>(i)] = bl.t;
+        du[static_cast<std::size_t>(i)] = static_cast<double>(bl.n) / p0.fs;
+        rows(i, 0) = ad.zr[b0 + i];
+        rows.row(i).tail(P) = ad.Xr.row(b0 + i);
+      }
+      whiten_segment(R.stoch[static_cast<std::size_t>(a)], tm, du, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S);
+      for (int i = 0; i < n; ++i) {
+        ad.z[b0 + i] = innov(i, 0);
+        ad.X.row(b0 + i) = innov.row(i).tail(P);
+        ad.v[b0 + i] = S[i];
+      }
+      b0 = b1;
+    }
     for (int b = 0; b < B; ++b) {
       const auto k = static_cast<std::size_t>(blocks[static_cast<std::size_t>(b)].fold);
       const double w = 1.0 / ad.v[b];
@@ -749,16 +1022,24 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
         double n = 0;
         for (int b : bl) {
           const double nb = static_cast<double>(blocks[static_cast<std::size_t>(b)].n);
-          au.X.row(u) += nb * ad.X.row(b);
-          au.z[u] += nb * ad.z[b];
+          au.X.row(u) += nb * ad.Xr.row(b);
+          au.z[u] += nb * ad.zr[b];
           n += nb;
         }
         au.X.row(u) /= n;
         au.z[u] /= n;
-        au.v[u] = std::max(R.noise[static_cast<std::size_t>(a)].terms.avar(n / p0.fs), 1e-300);
-        double vmin = 0;  // never below the independent-block value (guards a degenerate noise fit)
-        for (int b : bl) vmin += std::pow(static_cast<double>(blocks[static_cast<std::size_t>(b)].n) / n, 2) * ad.v[b];
-        au.v[u] = std::max(au.v[u], vmin);
+        // Variance of the segment mean under the stochastic model (correlated bias included).
+        double var = 0;
+        const double t_start = blocks[static_cast<std::size_t>(bl.front())].t;
+        for (int b : bl)
+          for (int b2 : bl) {
+            const Block& x1 = blocks[static_cast<std::size_t>(b)];
+            const Block& x2 = blocks[static_cast<std::size_t>(b2)];
+            var += static_cast<double>(x1.n) * static_cast<double>(x2.n) / (n * n) *
+                   block_covariance(R.stoch[static_cast<std::size_t>(a)], x1.t, static_cast<double>(x1.n) / p0.fs, x2.t,
+                                    static_cast<double>(x2.n) / p0.fs, b == b2, t_start, R.rw_prior_var[static_cast<std::size_t>(a)]);
+          }
+        au.v[u] = std::max(var, 1e-300);
         const auto k = static_cast<std::size_t>(blocks[static_cast<std::size_t>(bl.front())].fold);
         const double w = 1.0 / au.v[u];
         Eigen::VectorXd x = au.X.row(u).transpose();
@@ -812,124 +1093,236 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   };
   auto pos = [](double x) { return std::max(x, 0.0); };
 
-  // Scores every remaining candidate against the current model.
+  // Compares model `cur` with `cur ∪ effect (s, e)` (forward) and returns the score of the effect.
+  // Per axis: admitted new columns (rank check), GLS likelihood ratio on the whitened blocks, held-out χ²
+  // and gap on withheld segments, magnitudes with σ.
+  auto score_one = [&](const std::set<ParamId>& cur, Sensor s, Effect e) {
+    CandidateScore cs;
+    cs.effect = model::effect_info(e).name;
+    cs.sensor = model::sensor_name(s);
+    const std::vector<ParamId> eids = model::effect_params(s, e);
+    double lr = 0, rss_aug = 0, excess_cur = 0, ho_gain = 0;
+    int dof = 0, n_obs = 0, p_aug = 0;
+    const int a0 = s == Sensor::kAccel ? 0 : 3;
+    std::vector<ParamEstimate> mags;
+    for (int a = a0; a < a0 + 3; ++a) {
+      const auto& ad = ax[static_cast<std::size_t>(a)];
+      const std::vector<int> sel0 = cols_for(ad, cur);
+      const std::vector<int> sel = cols_for(ad, cur, eids);
+      Fit fc = fit_axis(ad, sel0, -1);
+      Fit fa = fit_axis(ad, sel, -1);
+      const int extra = static_cast<int>(fa.kept.size()) - static_cast<int>(fc.kept.size());
+      for (int c : fa.dropped)
+        if (!cur.count(ad.cols[static_cast<std::size_t>(c)]))
+          cs.not_excitable.push_back(model::param_info(ad.cols[static_cast<std::size_t>(c)]).name + "@" + axis_name(a));
+      if (extra <= 0) continue;
+      dof += extra;
+      lr += fc.rss - fa.rss;
+      rss_aug += fa.rss;
+      n_obs += ad.nb;
+      p_aug += static_cast<int>(fa.kept.size());
+      HeldOut ha = heldout_axis(ad, axu[static_cast<std::size_t>(a)], sel, folds);
+      HeldOut hc = heldout_axis(ad, axu[static_cast<std::size_t>(a)], sel0, folds);
+      // The plain drop of the held-out χ² (noise variance only): a fold fit that extrapolates poorly raises
+      // it, so an effect the campaign cannot pin down never earns a gain.
+      ho_gain += hc.chi2 - ha.chi2;
+      excess_cur += pos(hc.chi2 - hc.nb);
+      for (int i = 0; i < static_cast<int>(fa.kept.size()); ++i) {
+        const ParamId id = ad.cols[static_cast<std::size_t>(fa.kept[static_cast<std::size_t>(i)])];
+        if (cur.count(id) || std::find(eids.begin(), eids.end(), id) == eids.end()) continue;
+        ParamEstimate pe;
+        pe.name = model::param_info(id).name;
+        pe.axis = axis_name(a);
+        pe.value = fa.theta[i];
+        pe.sigma = std::sqrt(std::max(fa.cov(i, i), 0.0));
+        mags.push_back(pe);
+      }
+    }
+    cs.dof = dof;
+    if (dof == 0) {
+      cs.excitable = false;
+      return cs;
+    }
+    // Robustness against a noise floor the data exceed: scale by the augmented fit's reduced χ² when > 1.
+    const double s2 = std::max(1.0, rss_aug / std::max(1, n_obs - p_aug));
+    cs.lr = std::max(lr, 0.0) / s2;
+    cs.p_value = chi2_sf(cs.lr, dof);
+    cs.score = -chi2_log10_sf(cs.lr, dof);
+    cs.delta_bic = -cs.lr + dof * std::log(std::max(2, n_obs));
+    cs.heldout_chi2_gain = ho_gain;
+    // Shrink of the held-out χ² excess (withheld segments) of the axes the effect acts on.
+    cs.heldout_shrink_pct = excess_cur > 0 ? 100.0 * ho_gain / excess_cur : 0.0;
+    for (auto& m : mags) {
+      m.sigma *= std::sqrt(s2);
+      cs.min_detectable.push_back(5.0 * m.sigma);
+      const double lim = plausible_limit(model::param_info(model::find_param(m.name)));
+      if (o.check_plausibility && std::fabs(m.value) > lim && std::fabs(m.value) > 3.0 * m.sigma)
+        cs.implausible.push_back(m.name + "@" + m.axis);
+    }
+    cs.magnitude = mags;
+    return cs;
+  };
+  // Selection needs significance (Bonferroni over the candidates of the step) AND a material held-out
+  // improvement: a χ² gain above twice the added degrees of freedom and a positive shrink of the gap.
+  // A magnitude outside the plausible range (docs/error-model.md) disqualifies the candidate (flagged).
+  auto qualifies = [&](const CandidateScore& c, double level) {
+    return c.excitable && c.p_value < level && c.heldout_chi2_gain > 2.0 * c.dof && c.heldout_shrink_pct >= o.min_shrink_pct;
+  };
   auto score_all = [&](const std::set<ParamId>& cur, const std::set<std::pair<int, int>>& cur_effects) {
     std::vector<CandidateScore> out;
-    // Current model per axis.
-    std::array<Fit, kNumAxes> fcur;
-    std::array<HeldOut, kNumAxes> hcur;
-    for (int a = 0; a < kNumAxes; ++a) {
-      const auto& ad = ax[static_cast<std::size_t>(a)];
-      fcur[static_cast<std::size_t>(a)] = fit_axis(ad, cols_for(ad, cur), -1);
-      hcur[static_cast<std::size_t>(a)] = heldout_axis(ad, axu[static_cast<std::size_t>(a)], cols_for(ad, cur), folds);
-    }
     for (auto [s, e] : candidates) {
       if (cur_effects.count({static_cast<int>(s), static_cast<int>(e)})) continue;
-      CandidateScore cs;
-      cs.effect = model::effect_info(e).name;
-      cs.sensor = model::sensor_name(s);
-      const std::vector<ParamId> eids = model::effect_params(s, e);
-      double lr = 0, rss_aug = 0, gap_cur = 0, gap_aug = 0, ho_gain = 0;
-      int dof = 0, n_obs = 0, p_aug = 0;
-      const int a0 = s == Sensor::kAccel ? 0 : 3;
-      std::vector<ParamEstimate> mags;
-      for (int a = a0; a < a0 + 3; ++a) {
-        const auto& ad = ax[static_cast<std::size_t>(a)];
-        std::vector<int> sel = cols_for(ad, cur, eids);
-        Fit fa = fit_axis(ad, sel, -1);
-        const Fit& fc = fcur[static_cast<std::size_t>(a)];
-        const int extra = static_cast<int>(fa.kept.size()) - static_cast<int>(fc.kept.size());
-        for (int c : fa.dropped)
-          if (!cur.count(ad.cols[static_cast<std::size_t>(c)]))
-            cs.not_excitable.push_back(model::param_info(ad.cols[static_cast<std::size_t>(c)]).name + "@" + axis_name(a));
-        if (extra <= 0) continue;
-        dof += extra;
-        lr += fc.rss - fa.rss;
-        rss_aug += fa.rss;
-        n_obs += ad.nb;
-        p_aug += static_cast<int>(fa.kept.size());
-        HeldOut ha = heldout_axis(ad, axu[static_cast<std::size_t>(a)], sel, folds);
-        const HeldOut& hc = hcur[static_cast<std::size_t>(a)];
-        ho_gain += (hc.chi2 - hc.expected) - (ha.chi2 - ha.expected);
-        gap_cur += pos(hc.gap());
-        gap_aug += pos(ha.gap());
-        for (int i = 0; i < static_cast<int>(fa.kept.size()); ++i) {
-          const ParamId id = ad.cols[static_cast<std::size_t>(fa.kept[static_cast<std::size_t>(i)])];
-          if (cur.count(id)) continue;
-          ParamEstimate pe;
-          pe.name = model::param_info(id).name;
-          pe.axis = axis_name(a);
-          pe.value = fa.theta[i];
-          pe.sigma = std::sqrt(std::max(fa.cov(i, i), 0.0));
-          mags.push_back(pe);
-        }
-      }
-      cs.dof = dof;
-      if (dof == 0) {
-        cs.excitable = false;
-        out.push_back(cs);
-        continue;
-      }
-      // Robustness against a noise floor the data exceed: scale by the augmented fit's reduced χ² when > 1.
-      const double s2 = std::max(1.0, rss_aug / std::max(1, n_obs - p_aug));
-      cs.lr = std::max(lr, 0.0) / s2;
-      cs.p_value = chi2_sf(cs.lr, dof);
-      cs.score = -chi2_log10_sf(cs.lr, dof);
-      cs.delta_bic = -cs.lr + dof * std::log(std::max(2, n_obs));
-      cs.heldout_chi2_gain = ho_gain;
-      cs.heldout_shrink_pct = gap_cur > 0 ? 100.0 * (1.0 - gap_aug / gap_cur) : 0.0;
-      for (auto& m : mags) {
-        m.sigma *= std::sqrt(s2);
-        cs.min_detectable.push_back(5.0 * m.sigma);
-      }
-      cs.magnitude = mags;
-      out.push_back(cs);
+      out.push_back(score_one(cur, s, e));
     }
     int m = 0;
     for (const auto& c : out) m += c.excitable ? 1 : 0;
     const double level = o.alpha / std::max(1, m);
-    for (auto& c : out) c.significant = c.excitable && c.p_value < level && c.heldout_chi2_gain > 0;
+    for (auto& c : out) c.significant = qualifies(c, level) && c.implausible.empty();
     std::stable_sort(out.begin(), out.end(), [](const CandidateScore& x, const CandidateScore& y) {
       if (x.excitable != y.excitable) return x.excitable;
       return x.score > y.score;
     });
     return out;
   };
-
-  R.gap_before = gap_of(model_ids);
-  std::set<std::pair<int, int>> cur_effects = in_model;
-  std::set<ParamId> cur = model_ids;
-  Gap last = R.gap_before;
-  for (int step = 0;; ++step) {
-    std::vector<CandidateScore> sc = score_all(cur, cur_effects);
-    if (step == 0) R.ranking = sc;
-    if (step >= o.max_steps) break;
-    const CandidateScore* best = nullptr;
-    for (const auto& c : sc)
-      if (c.significant) {
-        best = &c;
-        break;
-      }
-    if (!best) break;
-    Effect e;
-    model::find_effect(best->effect, e);
-    const Sensor s = best->sensor == "accel" ? Sensor::kAccel : Sensor::kGyro;
-    cur_effects.insert({static_cast<int>(s), static_cast<int>(e)});
-    for (ParamId id : model::effect_params(s, e)) cur.insert(id);
+  auto effect_of = [](const std::string& sensor, const std::string& effect) {
+    Effect e = Effect::kBias;
+    model::find_effect(effect, e);
+    return std::make_pair(sensor == "accel" ? Sensor::kAccel : Sensor::kGyro, e);
+  };
+  auto add_effect = [](std::set<ParamId>& ids, std::set<std::pair<int, int>>& effs, Sensor s, Effect e) {
+    effs.insert({static_cast<int>(s), static_cast<int>(e)});
+    for (ParamId id : model::effect_params(s, e)) ids.insert(id);
+  };
+  auto remove_effect = [](std::set<ParamId>& ids, std::set<std::pair<int, int>>& effs, Sensor s, Effect e) {
+    effs.erase({static_cast<int>(s), static_cast<int>(e)});
+    for (ParamId id : model::effect_params(s, e)) ids.erase(id);
+  };
+  auto make_step = [&](const std::string& sensor, const std::string& effect, double p, double lr, const std::set<ParamId>& cur) {
     Step st;
-    st.effect = best->effect;
-    st.sensor = best->sensor;
-    st.p_value = best->p_value;
-    st.lr = best->lr;
+    st.effect = effect;
+    st.sensor = sensor;
+    st.p_value = p;
+    st.lr = lr;
     st.gap_after = gap_of(cur);
     for (int a = 0; a < kNumAxes; ++a) {
       const double g0 = R.gap_before.gap[static_cast<std::size_t>(a)];
       st.shrink_pct[static_cast<std::size_t>(a)] = g0 > 0 ? 100.0 * (1.0 - pos(st.gap_after.gap[static_cast<std::size_t>(a)]) / g0) : 0.0;
     }
-    last = st.gap_after;
-    R.selected.push_back(st);
+    return st;
+  };
+
+  R.gap_before = gap_of(model_ids);
+  std::set<std::pair<int, int>> cur_effects = in_model;
+  std::set<ParamId> cur = model_ids;
+  // Effects forced in (timing of a sensor whose reference is already re-evaluated at its shifted time).
+  for (auto [s, e] : o.forced) {
+    add_effect(cur, cur_effects, s, e);
+    R.selected.push_back(make_step(model::sensor_name(s), model::effect_info(e).name, 0.0, 0.0, cur));
   }
-  R.gap_after = last;
+  const std::set<std::pair<int, int>> fixed_effects = cur_effects;  // never dropped by the backward step
+  std::map<std::pair<int, int>, int> times_dropped;
+  for (int step = 0;; ++step) {
+    std::vector<CandidateScore> sc = score_all(cur, cur_effects);
+    if (step == 0) R.ranking = sc;
+    if (std::getenv("IMUFORGE_DIAG_TRACE")) {
+      std::fprintf(stderr, "step %d\n", step);
+      for (std::size_t i = 0; i < sc.size() && i < 8; ++i)
+        std::fprintf(stderr, "  %s.%s score=%.1f gain=%.1f shrink=%.1f%% dof=%d sig=%d impl=%zu\n", sc[i].sensor.c_str(),
+                     sc[i].effect.c_str(), sc[i].score, sc[i].heldout_chi2_gain, sc[i].heldout_shrink_pct, sc[i].dof,
+                     sc[i].significant ? 1 : 0, sc[i].implausible.size());
+    }
+    if (step >= o.max_steps) break;
+    const CandidateScore* best = nullptr;
+    for (const auto& c : sc)
+      if (c.significant && times_dropped[{static_cast<int>(effect_of(c.sensor, c.effect).first), static_cast<int>(effect_of(c.sensor, c.effect).second)}] < 2) {
+        best = &c;
+        break;
+      }
+    if (!best) break;
+    const auto [bs, be] = effect_of(best->sensor, best->effect);
+    add_effect(cur, cur_effects, bs, be);
+    R.selected.push_back(make_step(best->sensor, best->effect, best->p_value, best->lr, cur));
+    // Backward: re-test every selected effect against the model without it; drop the weakest that no
+    // longer qualifies (significance and held-out gain, as for an addition).
+    for (;;) {
+      const CandidateScore* worst = nullptr;
+      CandidateScore wc;
+      std::vector<CandidateScore> back;
+      for (const auto& ef : cur_effects) {
+        if (fixed_effects.count(ef)) continue;
+        const Sensor s = static_cast<Sensor>(ef.first);
+        const Effect e = static_cast<Effect>(ef.second);
+        std::set<ParamId> without = cur;
+        std::set<std::pair<int, int>> ew = cur_effects;
+        remove_effect(without, ew, s, e);
+        back.push_back(score_one(without, s, e));
+      }
+      const double level = o.alpha / std::max<std::size_t>(1, sc.size());
+      for (const auto& c : back)
+        if (!qualifies(c, level) && (!worst || c.score < worst->score)) {
+          wc = c;
+          worst = &wc;
+        }
+      if (!worst) break;
+      const auto [ws, we] = effect_of(worst->sensor, worst->effect);
+      remove_effect(cur, cur_effects, ws, we);
+      ++times_dropped[{static_cast<int>(ws), static_cast<int>(we)}];
+      R.dropped.push_back(worst->sensor + "." + worst->effect);
+      R.selected.erase(std::remove_if(R.selected.begin(), R.selected.end(),
+                                      [&](const Step& st) { return st.sensor == worst->sensor && st.effect == worst->effect; }),
+                       R.selected.end());
+    }
+  }
+  R.gap_after = gap_of(cur);
+
+  // ---- Unexplained: axes still above their noise. Effects of that sensor that leave the gap where it was
+  // are withdrawn (they are not an explanation); the residual's signature is ranked.
+  auto over = [&](const Gap& g, int a) { return g.chi2_dof[static_cast<std::size_t>(a)] > o.unexplained_chi2_dof; };
+  std::array<std::vector<std::string>, 2> withdrawn;
+  for (int si = 0; si < 2; ++si) {
+    std::vector<int> ua;
+    for (int a = 3 * si; a < 3 * si + 3; ++a)
+      if (over(R.gap_after, a)) ua.push_back(a);
+    std::vector<std::pair<int, int>> sel_s;
+    for (const auto& ef : cur_effects)
+      if (ef.first == si && !fixed_effects.count(ef)) sel_s.push_back(ef);
+    if (ua.empty() || sel_s.empty()) continue;
+    std::set<ParamId> without = cur;
+    std::set<std::pair<int, int>> ew = cur_effects;
+    for (const auto& ef : sel_s) remove_effect(without, ew, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
+    const Gap g0 = gap_of(without);
+    // Judged on the held-out χ² excess of all three axes of the sensor: effects that explain another axis
+    // of the sensor are kept even when one axis stays unexplained.
+    double before = 0, after = 0;
+    for (int a = 3 * si; a < 3 * si + 3; ++a) {
+      before += pos(g0.chi2_dof[static_cast<std::size_t>(a)] - 1.0);
+      after += pos(R.gap_after.chi2_dof[static_cast<std::size_t>(a)] - 1.0);
+    }
+    if (before > 0 && after <= o.unexplained_keep_frac * before) continue;
+    for (const auto& ef : sel_s) {
+      const std::string sn = model::sensor_name(static_cast<Sensor>(ef.first));
+      const std::string en = model::effect_info(static_cast<Effect>(ef.second)).name;
+      withdrawn[static_cast<std::size_t>(si)].push_back(sn + "." + en);
+      R.selected.erase(std::remove_if(R.selected.begin(), R.selected.end(),
+                                      [&](const Step& st) { return st.sensor == sn && st.effect == en; }),
+                       R.selected.end());
+    }
+    cur = without;
+    cur_effects = ew;
+  }
+  R.gap_after = gap_of(cur);
+  R.final_ids = cur;
+  for (int a = 0; a < kNumAxes; ++a) {
+    if (!over(R.gap_after, a)) continue;
+    Unexplained u;
+    u.axis = axis_name(a);
+    u.chi2_dof_after = R.gap_after.chi2_dof[static_cast<std::size_t>(a)];
+    u.withdrawn = withdrawn[static_cast<std::size_t>(a / 3)];
+    std::vector<double> r, pv;
+    heldout_blocks(ax[static_cast<std::size_t>(a)], cols_for(ax[static_cast<std::size_t>(a)], cur), folds, blocks, r, pv);
+    u.signature = residual_signature(blocks, r, pv);
+    R.unexplained.push_back(u);
+  }
 
   // ---- Final parameters on all data.
   for (int a = 0; a < kNumAxes; ++a) {
@@ -1137,6 +1530,89 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     }
   }
   for (const Block& b : blocks) R.n_static_blocks += b.is_static ? 1 : 0;
+  return R;
+}
+
+}  // namespace
+
+// Timing without linearisation: when a sensor's timing is selected, its reference is re-evaluated at the
+// estimated shifted time (ShiftedReference) and the whole diagnosis re-run with the timing pair kept as a
+// linear correction around the shift; repeated until the correction is below a tenth of its σ.
+DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options& opt) {
+  TimeShift shift[2];
+  DiagnosisResult first = diagnose_core(src, base, opt, shift);
+  DiagnosisResult R = first;
+  Options o = opt;
+  for (int it = 1; it <= opt.max_timing_iterations; ++it) {
+    // Per sensor: inverse-variance combination of the per-axis timing relaxation of the final fit.
+    bool any = false, moved = false;
+    TimeShift next[2] = {shift[0], shift[1]};
+    for (int si = 0; si < 2; ++si) {
+      const Sensor s = static_cast<Sensor>(si);
+      if (!R.final_ids.count(model::effect_params(s, Effect::kTiming).front())) continue;
+      any = true;
+      double swl = 0, sl = 0, swp = 0, sp = 0;
+      for (const auto& pe : R.final_params) {
+        if (pe.name.rfind(std::string(model::sensor_name(s)) + ".timing.", 0) != 0 || !(pe.sigma > 0)) continue;
+        const double w = 1.0 / (pe.sigma * pe.sigma);
+        if (pe.name.find("latency_s") != std::string::npos) { swl += w; sl += w * pe.value; }
+        else { swp += w; sp += w * pe.value; }
+      }
+      const double dl = swl > 0 ? sl / swl : 0.0, dp = swp > 0 ? sp / swp : 0.0;
+      const double sgl = swl > 0 ? 1.0 / std::sqrt(swl) : 1.0, sgp = swp > 0 ? 1.0 / std::sqrt(swp) : 1.0;
+      if (std::fabs(dl) > 0.1 * sgl || std::fabs(dp) > 0.1 * sgp) moved = true;
+      next[si].latency_s += dl;
+      next[si].ppm += dp;
+      // The linearised step can overshoot far from the optimum: cap it to what it can still describe.
+      next[si].latency_s = std::clamp(next[si].latency_s, -1.0, 1.0);
+      next[si].ppm = std::clamp(next[si].ppm, -1000.0, 1000.0);
+    }
+    // Below half a sample interval the linear term is exact to second order and interpolating the reference
+    // would add more error (curvature between samples) than it removes: stay linear.
+    double max_shift = 0;
+    for (int si = 0; si < 2; ++si)
+      for (double tt : {0.0, R.duration_s}) max_shift = std::max(max_shift, std::fabs(next[si].at(tt)));
+    if (it == 1 && max_shift < 0.5 / std::max(R.sample_rate_hz, 1e-9)) break;
+    if (!any || (!moved && it > 1)) break;
+    shift[0] = next[0];
+    shift[1] = next[1];
+    o.forced.clear();
+    for (int si = 0; si < 2; ++si)
+      if (shift[si].active()) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
+    R = diagnose_core(src, base, o, shift);
+    R.timing_iterations = it;
+    if (!moved) break;
+  }
+  // The "before" picture is the base model against the reference as logged.
+  if (R.timing_iterations > 0) {
+    R.gap_before = first.gap_before;
+    R.cells = first.cells;
+    for (auto& st : R.selected)
+      for (int a = 0; a < kNumAxes; ++a) {
+        const double g0 = R.gap_before.gap[static_cast<std::size_t>(a)];
+        st.shrink_pct[static_cast<std::size_t>(a)] =
+            g0 > 0 ? 100.0 * (1.0 - std::max(st.gap_after.gap[static_cast<std::size_t>(a)], 0.0) / g0) : 0.0;
+      }
+    // Timing candidates keep their first-pass score (against the logged reference) in the ranking.
+    for (const auto& c : first.ranking)
+      if (c.effect == "timing") R.ranking.push_back(c);
+    std::stable_sort(R.ranking.begin(), R.ranking.end(), [](const CandidateScore& x, const CandidateScore& y) {
+      if (x.excitable != y.excitable) return x.excitable;
+      return x.score > y.score;
+    });
+  }
+  for (int si = 0; si < 2; ++si) {
+    R.timing_shift_latency_s[static_cast<std::size_t>(si)] = shift[si].latency_s;
+    R.timing_shift_ppm[static_cast<std::size_t>(si)] = shift[si].ppm;
+  }
+  // Reported timing = the shift the reference was re-evaluated at + the remaining linear correction.
+  for (auto& pe : R.final_params) {
+    for (int si = 0; si < 2; ++si) {
+      const std::string pre = std::string(model::sensor_name(static_cast<Sensor>(si))) + ".timing.";
+      if (pe.name == pre + "latency_s") pe.value += shift[si].latency_s;
+      if (pe.name == pre + "ppm") pe.value += shift[si].ppm;
+    }
+  }
   return R;
 }
 

@@ -15,11 +15,13 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <set>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "host/diagnosis/noise_model.h"
 #include "host/diagnosis/stats.h"
 #include "host/model/catalog.h"
 #include "host/model/sensor_model.h"
@@ -43,6 +45,9 @@ struct Sample {
   double f[3] = {0, 0, 0};  // m/s², reference specific force (nominal frame)
   double w[3] = {0, 0, 0};  // rad/s, reference rate
   double y[6] = {0, 0, 0, 0, 0, 0};  // outputs, SI (m/s², rad/s)
+  // Reported rate-table angles (rad), NaN when not logged (signature of unexplained residuals only).
+  double table_angle_rad[3] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+                               std::numeric_limits<double>::quiet_NaN()};
 };
 
 // A re-readable stream of samples (the diagnosis reads it twice).
@@ -73,7 +78,18 @@ struct Options {
   int folds = 5;                    // K of K-fold by segment
   std::string cv = "auto";          // "segment", "plateau" (leave-one-plateau-out) or "auto"
   double alpha = 0.01;              // family-wise level; each candidate is tested at alpha / #candidates
-  int max_steps = 6;                // greedy forward selection steps
+  int max_steps = 20;               // forward steps (each followed by a backward pass)
+  int max_timing_iterations = 5;    // re-evaluations of the reference at the estimated timing shift
+  double min_shrink_pct = 2.0;      // a selected effect must shrink the held-out χ² excess by at least this (%)
+  // A determined magnitude (> 3σ) outside the plausible range (plausible_limit) disqualifies a candidate.
+  bool check_plausibility = true;
+  // An axis whose held-out χ²/dof (withheld segments) stays above this after selection is "unexplained".
+  double unexplained_chi2_dof = 3.0;
+  // A sensor's selected effects are withdrawn when its unexplained axes keep more than this fraction of their
+  // gap: effects that leave the gap where it was are not an explanation.
+  double unexplained_keep_frac = 0.5;
+  // Effects in the model from the start and never dropped (set internally: timing after re-evaluation).
+  std::vector<std::pair<model::Sensor, model::Effect>> forced;
   double T_ref_C = 25.0;
   double hysteresis_threshold_C = 0.5;
   double dTdt_window_s = 10.0;
@@ -83,6 +99,7 @@ struct Options {
   double block_w_tol = 0.05;        // rad/s
   double block_temp_tol_C = 0.5;
   int max_blocks = 6000;            // sets the minimum block length from the log duration
+  double settle_s = 1.5;            // trimmed from both ends of a static run before its Allan variance
   // Candidate effects; empty = every deterministic catalog effect not in the base model.
   std::vector<std::pair<model::Sensor, model::Effect>> candidates;
   // Claimed white-noise density per axis (unit/√Hz) for the Allan comparison; NaN = not claimed.
@@ -118,10 +135,11 @@ struct CandidateScore {
   double p_value = 1;
   double score = 0;            // −log10 p
   double delta_bic = 0;        // BIC(augmented) − BIC(current); negative favours the effect
-  double heldout_chi2_gain = 0;
-  double heldout_shrink_pct = 0;  // of the sensor's held-out gap (sum over its axes)
+  double heldout_chi2_gain = 0;   // drop of the held-out χ² (withheld segments) when the effect is added
+  double heldout_shrink_pct = 0;  // that drop in % of the held-out χ² excess over its noise count
   bool significant = false;
   std::vector<ParamEstimate> magnitude;
+  std::vector<std::string> implausible;  // components outside the plausible range (docs/error-model.md): flagged
   std::vector<double> min_detectable;  // 5σ of each kept component (what the campaign could have seen)
 };
 
@@ -154,6 +172,18 @@ struct ScatterPoint {
   double x = 0, before = 0, after = 0, sd = 0;
 };
 
+// An axis that stays above its noise after selection, and what its held-out residual follows.
+struct SignatureEntry {
+  std::string input;   // "f_x", "f_x*f_y", "w_z^2", "T", "Tdot", "time", "segment", "cos(table angle 2)", ...
+  double correlation = 0;
+};
+struct Unexplained {
+  std::string axis;
+  double chi2_dof_after = 0;
+  std::vector<SignatureEntry> signature;  // best first (by |r|)
+  std::vector<std::string> withdrawn;     // effects withdrawn because they left this gap in place
+};
+
 struct DiagnosisResult {
   // Data summary
   long long n_samples = 0, n_used = 0;
@@ -165,13 +195,20 @@ struct DiagnosisResult {
   double alpha = 0;
   // Noise
   std::array<std::vector<AllanAccumulator::Point>, kNumAxes> allan;
-  std::array<NoiseFit, kNumAxes> noise;
+  std::array<NoiseFit, kNumAxes> noise;          // IEEE 952 terms of the Allan curve (report)
+  std::array<StochasticModel, kNumAxes> stoch;   // the model carried into the likelihood (noise_model.h)
+  std::array<double, kNumAxes> rw_prior_var{};   // random-walk bias variance at a segment start
   std::array<double, kNumAxes> claimed_N{};
   std::array<std::vector<AllanAccumulator::Point>, kNumAxes> sim_allan;
   // Results
   Gap gap_before, gap_after;
   std::vector<CandidateScore> ranking;     // step-0 ranking, best first
   std::vector<Step> selected;
+  std::vector<std::string> dropped;        // effects removed again by a backward step ("gyro.g_sensitivity")
+  std::vector<Unexplained> unexplained;
+  std::set<model::ParamId> final_ids;      // parameters of the final model (base + selected)
+  std::array<double, 2> timing_shift_latency_s{}, timing_shift_ppm{};  // reference re-evaluated at this shift
+  int timing_iterations = 0;
   std::vector<StochasticScore> stochastic;
   std::vector<Cell> cells;
   std::vector<ParamEstimate> final_params; // the augmented model fitted on all data
@@ -192,11 +229,16 @@ BaseModel basic_model();
 
 DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options& opt);
 
+// Largest physically plausible |value| of a catalog parameter (docs/error-model.md, "Plausible ranges").
+double plausible_limit(const model::ParamInfo& p);
+
 // Pooled Allan variance per axis of the static blocks of a source (used for --sim).
 std::array<std::vector<AllanAccumulator::Point>, kNumAxes> static_allan(SampleSource& src, const Options& opt);
 
 // Outputs (report.cpp).
 nlohmann::json to_json(const DiagnosisResult& r);
+// One line per axis: "gyro.x: explained by timing, g_sensitivity (held-out chi2/dof 1.1)", "… not explained …".
+std::vector<std::string> verdict_lines(const DiagnosisResult& r);
 std::string summary_text(const DiagnosisResult& r);
 std::string report_html(const DiagnosisResult& r);
 

@@ -56,6 +56,41 @@ std::string unit_of(int a) { return a < 3 ? "m/s^2" : "rad/s"; }
 
 }  // namespace
 
+std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
+  std::vector<std::string> out;
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto u = static_cast<std::size_t>(a);
+    const std::string an = axis_name(a);
+    const std::string sensor = a < 3 ? "accel" : "gyro";
+    const Unexplained* ue = nullptr;
+    for (const auto& x : r.unexplained)
+      if (x.axis == an) ue = &x;
+    std::string line = an + ": ";
+    if (ue) {
+      line += "not explained by any effect in the catalog";
+      if (!ue->signature.empty())
+        line += "; the residual follows " + ue->signature.front().input + " (r = " + fmt("%.2f", ue->signature.front().correlation) + ")";
+      line += " (held-out chi2/dof " + fmt("%.3g", ue->chi2_dof_after) + ")";
+    } else {
+      std::vector<std::string> by;
+      for (const auto& st : r.selected)
+        if (st.sensor == sensor) by.push_back(st.effect);
+      if (by.empty()) {
+        line += "at noise with the model as given";
+      } else {
+        line += "explained by";
+        for (std::size_t i = 0; i < by.size(); ++i) line += (i ? ", " : " ") + by[i];
+      }
+      line += " (held-out chi2/dof " + fmt("%.3g", r.gap_after.chi2_dof[u]) + ")";
+    }
+    const auto& m = r.stoch[u];
+    if (m.gm_sigma > 0) line += "; drift: Gauss-Markov sigma " + fmt("%.3g", m.gm_sigma) + ", tau " + fmt("%.3g", m.gm_tau_s) + " s";
+    if (m.K > 0) line += "; rate random walk " + fmt("%.3g", m.K);
+    out.push_back(line);
+  }
+  return out;
+}
+
 nlohmann::json to_json(const DiagnosisResult& r) {
   nlohmann::json j;
   j["format"] = "imuforge-diagnosis";
@@ -64,6 +99,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
   j["data"] = {{"samples", r.n_samples}, {"samples_used", r.n_used}, {"duration_s", r.duration_s},
                {"sample_rate_hz", r.sample_rate_hz}, {"blocks", r.n_blocks}, {"static_blocks", r.n_static_blocks},
                {"segments", r.n_units}};
+  j["verdict"] = verdict_lines(r);
   j["base_model"] = r.base_effects;
   j["validation"] = {{"cv", r.cv_mode}, {"folds", r.folds}, {"alpha_familywise", r.alpha},
                      {"correction", "bonferroni"},
@@ -91,6 +127,10 @@ nlohmann::json to_json(const DiagnosisResult& r) {
       e["note"] = "cannot be excited by this campaign: cannot be ruled out";
     }
     if (!c.not_excitable.empty()) e["not_excitable"] = c.not_excitable;
+    if (!c.implausible.empty()) {
+      e["implausible"] = c.implausible;
+      e["note"] = "magnitude outside the plausible range of docs/error-model.md: flagged, not a finding";
+    }
     rk.push_back(e);
   }
   j["ranking"] = rk;
@@ -99,6 +139,27 @@ nlohmann::json to_json(const DiagnosisResult& r) {
     sel.push_back({{"effect", s.effect}, {"sensor", s.sensor}, {"p_value", num(s.p_value)}, {"lr", num(s.lr)},
                    {"gap_after", gap_json(s.gap_after, &r.gap_before)}});
   j["selected"] = sel;
+  j["dropped_by_backward_step"] = r.dropped;
+  // Stochastic terms the static dwells support (each cleared Δχ² > 10 on the Allan curve) and that the
+  // likelihood carried: the stochastic sibling of `selected`.
+  nlohmann::json ss = nlohmann::json::array();
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto& m = r.stoch[static_cast<std::size_t>(a)];
+    if (m.gm_sigma > 0) ss.push_back({{"effect", "gauss_markov"}, {"axis", axis_name(a)}, {"sigma", num(m.gm_sigma)}, {"tau_s", num(m.gm_tau_s)}});
+    if (m.K > 0) ss.push_back({{"effect", "rate_random_walk"}, {"axis", axis_name(a)}, {"value", num(m.K)}});
+    if (m.Q > 0) ss.push_back({{"effect", "quantization"}, {"axis", axis_name(a)}, {"value", num(m.Q)}});
+  }
+  j["selected_stochastic"] = ss;
+  nlohmann::json un = nlohmann::json::array();
+  for (const auto& x : r.unexplained) {
+    nlohmann::json sig = nlohmann::json::array();
+    for (const auto& e : x.signature) sig.push_back({{"input", e.input}, {"correlation", num(e.correlation)}});
+    un.push_back({{"axis", x.axis}, {"chi2_dof_after", num(x.chi2_dof_after)}, {"signature", sig}, {"withdrawn", x.withdrawn}});
+  }
+  j["unexplained"] = un;
+  j["timing_shift"] = {{"accel", {{"latency_s", num(r.timing_shift_latency_s[0])}, {"ppm", num(r.timing_shift_ppm[0])}}},
+                       {"gyro", {{"latency_s", num(r.timing_shift_latency_s[1])}, {"ppm", num(r.timing_shift_ppm[1])}}},
+                       {"iterations", r.timing_iterations}};
   j["gap_after"] = gap_json(r.gap_after, &r.gap_before);
   j["parameters"] = params_json(r.final_params);
   nlohmann::json st = nlohmann::json::array();
@@ -112,8 +173,11 @@ nlohmann::json to_json(const DiagnosisResult& r) {
     nlohmann::json pts = nlohmann::json::array();
     for (const auto& p : r.allan[u]) pts.push_back({num(p.tau_s), num(std::sqrt(p.avar)), num(p.edf)});
     const auto& t = r.noise[u].terms;
+    const auto& m = r.stoch[u];
     noise[axis_name(a)] = {{"Q", num(t.Q)}, {"N", num(t.N)}, {"B", num(t.B)}, {"K", num(t.K)},
-                           {"claimed_N", num(r.claimed_N[u])}, {"allan", pts}};
+                           {"claimed_N", num(r.claimed_N[u])}, {"allan", pts},
+                           {"likelihood_model", {{"N", num(m.N)}, {"Q", num(m.Q)}, {"gm_sigma", num(m.gm_sigma)},
+                                                 {"gm_tau_s", num(m.gm_tau_s)}, {"K", num(m.K)}}}};
   }
   j["noise"] = noise;
   nlohmann::json cells = nlohmann::json::array();
@@ -130,6 +194,8 @@ std::string summary_text(const DiagnosisResult& r) {
   o << "imuforge diagnose: " << r.n_used << " of " << r.n_samples << " samples used, " << fmt("%.1f", r.duration_s) << " s at "
     << fmt("%.1f", r.sample_rate_hz) << " Hz; " << r.n_blocks << " blocks in " << r.n_units << " segments; " << r.folds
     << "-fold by " << r.cv_mode << "\n";
+  o << "VERDICT\n";
+  for (const auto& l : verdict_lines(r)) o << "  " << l << "\n";
   o << "base model:";
   for (const auto& e : r.base_effects) o << " " << e;
   o << "\n\nWHERE: held-out gap (RMS of withheld block residuals above the modelled noise floor)\n";

@@ -1,3 +1,4 @@
+#include <limits>
 #include "host/diagnosis/sources.h"
 
 #include <Eigen/Dense>
@@ -25,6 +26,7 @@ bool LogSource::next(Sample& s) {
     s.w[k] = row.w_ref[k];
     s.y[k] = row.raw[k] * m.accel_lsb_mps2;
     s.y[k + 3] = row.raw[k + 3] * m.gyro_lsb_rad_s;
+    s.table_angle_rad[k] = k < m.table_axes ? row.table_angle_rad[k] : std::numeric_limits<double>::quiet_NaN();
   }
   return true;
 }

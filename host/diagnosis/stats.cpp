@@ -115,6 +115,46 @@ double NoiseTerms::avar(double tau_s) const {
   return 3.0 * Q * Q / (tau_s * tau_s) + N * N / tau_s + 2.0 * std::log(2.0) / M_PI * B * B + K * K * tau_s / 3.0;
 }
 
+bool fit_allan_terms(const std::vector<AllanAccumulator::Point>& pts, const std::function<double(int, double)>& basis, int p,
+                     Eigen::VectorXd& c, Eigen::MatrixXd& H, double& chi2) {
+  c = Eigen::VectorXd::Zero(p);
+  // Weights from the measured values (σ(AVAR) ≈ AVAR·√(2/edf)); reweighting passes with the fitted
+  // curve reduce the bias toward low points.
+  for (int pass = 0; pass < 3; ++pass) {
+    H = Eigen::MatrixXd::Zero(p, p);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
+    for (const auto& pt : pts) {
+      double ref = pt.avar;
+      if (pass > 0) {
+        double f = 0;
+        for (int i = 0; i < p; ++i) f += c[i] * basis(i, pt.tau_s);
+        if (f > 0) ref = f;
+      }
+      const double w = pt.edf / (2.0 * ref * ref);
+      Eigen::VectorXd a(p);
+      for (int i = 0; i < p; ++i) a[i] = basis(i, pt.tau_s);
+      H += w * a * a.transpose();
+      g += w * a * pt.avar;
+    }
+    // Scale to unit diagonal: the basis spans many decades.
+    Eigen::VectorXd s = H.diagonal().cwiseSqrt().cwiseInverse();
+    if (!s.allFinite()) return false;
+    Eigen::MatrixXd Hs = s.asDiagonal() * H * s.asDiagonal();
+    Eigen::LDLT<Eigen::MatrixXd> ldlt(Hs);
+    if (ldlt.info() != Eigen::Success) return false;
+    c = s.asDiagonal() * ldlt.solve(s.asDiagonal() * g);
+    for (int i = 0; i < p; ++i)
+      if (!(c[i] > 0)) return false;
+  }
+  chi2 = 0;
+  for (const auto& pt : pts) {
+    double f = 0;
+    for (int i = 0; i < p; ++i) f += c[i] * basis(i, pt.tau_s);
+    chi2 += pt.edf / 2.0 * (pt.avar - f) * (pt.avar - f) / (f * f);
+  }
+  return true;
+}
+
 NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsigned enabled_mask) {
   NoiseFit best;
   best.n_points = static_cast<int>(pts.size());
@@ -132,8 +172,6 @@ NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsign
       default: return tau;
     }
   };
-  // Weights from the measured values (σ(AVAR) ≈ AVAR·√(2/edf)); one reweighting pass with the fitted
-  // curve reduces the bias toward low points.
   for (unsigned subset = 1; subset < 16; ++subset) {
     if ((subset & enabled_mask) != subset) continue;
     std::vector<int> terms;
@@ -141,41 +179,11 @@ NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsign
       if (subset & (1u << t)) terms.push_back(t);
     const int p = static_cast<int>(terms.size());
     if (p > static_cast<int>(pts.size())) continue;
-    Eigen::VectorXd c = Eigen::VectorXd::Zero(p);
+    Eigen::VectorXd c;
     Eigen::MatrixXd H;
-    bool ok = true;
-    for (int pass = 0; pass < 3 && ok; ++pass) {
-      H = Eigen::MatrixXd::Zero(p, p);
-      Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
-      for (const auto& pt : pts) {
-        double ref = pt.avar;
-        if (pass > 0) {
-          double f = 0;
-          for (int i = 0; i < p; ++i) f += c[i] * basis(terms[static_cast<std::size_t>(i)], pt.tau_s);
-          if (f > 0) ref = f;
-        }
-        const double w = pt.edf / (2.0 * ref * ref);
-        Eigen::VectorXd a(p);
-        for (int i = 0; i < p; ++i) a[i] = basis(terms[static_cast<std::size_t>(i)], pt.tau_s);
-        H += w * a * a.transpose();
-        g += w * a * pt.avar;
-      }
-      // Scale to unit diagonal: the basis spans many decades.
-      Eigen::VectorXd s = H.diagonal().cwiseSqrt().cwiseInverse();
-      Eigen::MatrixXd Hs = s.asDiagonal() * H * s.asDiagonal();
-      Eigen::LDLT<Eigen::MatrixXd> ldlt(Hs);
-      if (ldlt.info() != Eigen::Success) { ok = false; break; }
-      c = s.asDiagonal() * ldlt.solve(s.asDiagonal() * g);
-      for (int i = 0; i < p; ++i)
-        if (!(c[i] > 0)) ok = false;
-    }
-    if (!ok) continue;
     double chi2 = 0;
-    for (const auto& pt : pts) {
-      double f = 0;
-      for (int i = 0; i < p; ++i) f += c[i] * basis(terms[static_cast<std::size_t>(i)], pt.tau_s);
-      chi2 += pt.edf / 2.0 * (pt.avar - f) * (pt.avar - f) / (f * f);
-    }
+    if (!fit_allan_terms(pts, [&](int i, double tau) { return basis(terms[static_cast<std::size_t>(i)], tau); }, p, c, H, chi2))
+      continue;
     if (chi2 < best.chi2) {
       NoiseFit nf;
       nf.n_points = best.n_points;

@@ -2,7 +2,10 @@
 // IEEE 952 noise-term fit of an Allan curve. No dependency on the rest of imuforge.
 #pragma once
 
+#include <functional>
 #include <vector>
+
+#include <Eigen/Core>
 
 namespace imuforge::diagnosis {
 
@@ -56,6 +59,11 @@ struct NoiseFit {
 };
 // Non-negative weighted least squares over the enabled terms (mask bit 0 Q, 1 N, 2 B, 3 K): every subset of
 // the enabled terms is tried and the best feasible one kept (4 terms -> 16 small solves).
+// Weighted least squares of Allan points on Σ c_i basis(i, τ), i < p, weights edf/(2·AVAR²) reweighted with the
+// fit (3 passes). False when the system is singular or a coefficient is not positive (the caller tries another
+// subset). chi2 = Σ edf/2 (AVAR − fit)²/fit²; H = the weighted information (for σ).
+bool fit_allan_terms(const std::vector<AllanAccumulator::Point>& pts, const std::function<double(int, double)>& basis, int p,
+                     Eigen::VectorXd& c, Eigen::MatrixXd& H, double& chi2);
 NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsigned enabled_mask = 0xF);
 
 }  // namespace imuforge::diagnosis

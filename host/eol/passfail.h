@@ -17,9 +17,10 @@ struct Verdict {
 // Fills limit_abs / sigma_spec / pass of each parameter and pass of each verification entry, and returns
 // the verdict. Fails on: a non-finite value or σ; |value| > abs limit; σ > σ limit; a verification
 // residual above its limit or non-finite; no verification entries at all (an unverified table never
-// passes); and every extra reason passed in (e.g. "flash: read-back differs").
+// passes, unless require_verification is false: a batch solve of logs judges the parameters only); and
+// every extra reason passed in (e.g. "flash: read-back differs").
 Verdict evaluate(const StationConfig& st, std::vector<records::ParameterRecord>& params,
                  std::vector<records::VerificationRecord>& verification,
-                 const std::vector<std::string>& extra_reasons = {});
+                 const std::vector<std::string>& extra_reasons = {}, bool require_verification = true);
 
 }  // namespace imuforge::eol

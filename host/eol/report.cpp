@@ -128,17 +128,21 @@ std::string render_report(const ReportData& d) {
   return h;
 }
 
-void write_report(const std::string& path, const ReportData& d) {
+void write_file_atomic(const std::string& path, const std::string& text) {
   std::string tmp = path + ".tmp";
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     if (!f) throw std::runtime_error("report: cannot write " + tmp);
-    f << render_report(d);
+    f << text;
     if (!f) throw std::runtime_error("report: write failed: " + tmp);
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) throw std::runtime_error("report: cannot rename " + tmp + ": " + ec.message());
 }
+
+void write_report(const std::string& path, const ReportData& d) { write_file_atomic(path, render_report(d)); }
+
+std::string html_escape(const std::string& s) { return esc(s); }
 
 }  // namespace imuforge::eol

@@ -7,10 +7,10 @@
 #include <fstream>
 #include <limits>
 #include <map>
-#include <optional>
 #include <set>
 
 #include "firmware/common/crc32.h"
+#include "host/eol/batch.h"
 #include "host/eol/journal.h"
 #include "host/eol/passfail.h"
 #include "host/eol/progress.h"
@@ -152,11 +152,10 @@ RunResult Runner::run() {
     throw std::invalid_argument(std::string("model: ") + e.what());
   }
   // The fixture tolerance is checked against the campaign's table now, not after hours of collection.
-  std::optional<solver::FixtureTolerance> tolerance;
   if (!st.fixture_tolerance.is_null()) {
     try {
-      tolerance = solver::fixture_tolerance_from_json(st.fixture_tolerance, static_cast<int>(camp.axes.size()),
-                                                      "station " + opt_.station_path);
+      solver::fixture_tolerance_from_json(st.fixture_tolerance, static_cast<int>(camp.axes.size()),
+                                          "station " + opt_.station_path);
     } catch (const solver::SolverError& e) {
       throw std::invalid_argument(e.what());
     }
@@ -662,30 +661,13 @@ RunResult Runner::run() {
   json fixture_section = solver::fixture_tolerance_not_stated();
   std::string consider_error;
   try {
-    io::LogReader lr(log_path);
-    solver::FixtureAccumulator acc(spec, lr.meta());
-    io::LogRow row;
-    while (lr.next(row)) acc.add(row);
-    acc.finish();
-    solver::Sigma6 noise = acc.static_noise_sigma();
-    if (st.accel_noise_mps2 > 0)
-      for (int c = 0; c < 3; ++c) noise[static_cast<std::size_t>(c)] = st.accel_noise_mps2;
-    if (st.gyro_noise_rad_s > 0)
-      for (int c = 3; c < 6; ++c) noise[static_cast<std::size_t>(c)] = st.gyro_noise_rad_s;
-    solver::FixtureSolution sol = solver::solve_fixture(acc, noise);
-    if (sol.estimate.names == est.names) {
-      est = sol.estimate;
+    UnitSolve us = solve_unit_log(log_path, st, spec, camp);
+    if (us.estimate.names == est.names) {
+      est = us.estimate;
+      sigma_noise = us.sigma_noise;
+      fixture_section = us.fixture_section;
+      consider_error = us.consider_error;
       solve_note = "batch fixture mode (host/solver)";
-      if (tolerance) {
-        try {
-          const solver::ConsiderResult cr = solver::consider_fixture_tolerance(lr, spec, camp, est, noise, *tolerance);
-          fixture_section = solver::apply_consider(est, cr, *tolerance, &sigma_noise);
-        } catch (const solver::SolverError& e) {
-          // σ without the stated fixture would claim a precision the station does not have: no pass.
-          fixture_section = {{"stated", true}, {"error", e.what()}};
-          consider_error = std::string("fixture tolerance: ") + e.what();
-        }
-      }
     } else {
       solve_note = "srif (batch names differ: per-plateau model?)";
     }

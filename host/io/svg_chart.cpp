@@ -88,12 +88,12 @@ std::string line_chart(const std::string& title, const std::vector<ChartSeries>&
     if (!s.markers && !path.empty())
       o += "<path d='" + path + "' fill='none' stroke='" + s.color + "' stroke-width='1.3'" +
            (s.dashed ? " stroke-dasharray='4,3'" : "") + "/>";
-    if (li < 16) {
+    if (li < 16 && !s.name.empty()) {
       double ly = T + 10 + 13 * li;
       o += "<rect x='" + fmt(W - R + 8) + "' y='" + fmt(ly - 8) + "' width='10' height='3' fill='" + s.color + "'/>";
       o += "<text x='" + fmt(W - R + 22) + "' y='" + fmt(ly - 3) + "'>" + esc(s.name) + "</text>";
     }
-    ++li;
+    if (!s.name.empty()) ++li;
   }
   return o + "</svg>";
 }

@@ -24,6 +24,7 @@ struct ChartSeries {
 const char* chart_color(std::size_t i);
 
 // A line chart as inline SVG. logy: log10 axis (non-positive points dropped). hline: a dashed level.
+// Series with an empty name get no legend entry.
 std::string line_chart(const std::string& title, const std::vector<ChartSeries>& series, const std::string& xlabel,
                        const std::string& ylabel, bool logy = false, double hline = NAN, int W = 760, int H = 260);
 

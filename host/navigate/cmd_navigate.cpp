@@ -48,7 +48,7 @@ int run_navigate(int argc, char** argv) {
   std::vector<std::string> cals;
   int runs = 100, threads = 0;
   unsigned long long seed = 1;
-  double spec_m = NAN, spec_at_s = NAN;
+  double spec_m = NAN, spec_at_s = NAN, ambient_C = NAN;
   app.add_option("--trajectory", traj_path, "trajectory file (docs/formats.md, docs/examples/trajectory-urban.json)")->required();
   app.add_option("--sensor", sensor_path, "sensor model file: the part being navigated (docs/examples/sensor-*.json)")->required();
   app.add_option("--cal", cals, "calibration file (cal.json from imuforge solve); repeat to compare");
@@ -59,6 +59,7 @@ int run_navigate(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads (0: all cores)")->check(CLI::Range(0, 256));
   app.add_option("--aiding", aiding, "before the outage: pos-vel (reset position and velocity) or pos-vel-att (also attitude)")
       ->check(CLI::IsMember({"pos-vel", "pos-vel-att"}));
+  app.add_option("--ambient-c", ambient_C, "override the trajectory's ambient temperature (°C)")->check(CLI::Range(-59.0, 124.0));
   app.add_option("--spec-m", spec_m, "report the calibration σ per parameter group that meets RMS horizontal error <= this (m)");
   app.add_option("--spec-at", spec_at_s, "time into the outage for --spec-m (s; default: the outage end, at most 60)");
   try {
@@ -67,7 +68,8 @@ int run_navigate(int argc, char** argv) {
     return app.exit(e) == 0 ? app::kExitOk : app::kExitUsage;
   }
   try {
-    const sim::TrajectoryFile tf = sim::load_trajectory(traj_path);
+    sim::TrajectoryFile tf = sim::load_trajectory(traj_path);
+    if (std::isfinite(ambient_C)) tf.ambient_C = ambient_C;
     const model::SensorModel sensor = model::load_sensor_model(sensor_path);
     navigate::ImpactOptions opt;
     std::string label;
@@ -126,13 +128,10 @@ int run_navigate(int argc, char** argv) {
         for (const auto& run : orc.hpos_m) s2 += static_cast<double>(run[sec - 1]) * run[sec - 1];
         floor_m = std::sqrt(s2 / static_cast<double>(orc.hpos_m.size()));
       }
-      rep.sens = navigate::sensitivity(truth, sensor, opt, std::isfinite(spec_m) ? spec_m : 1.0, at, floor_m);
-      for (const auto& e : estimates) rep.predicted_rms_m.push_back(e.names.empty() ? NAN : rep.sens->predicted_rms_m(e));
-      if (!std::isfinite(spec_m)) rep.sens->groups.clear();  // only the σ prediction was wanted
-    }
-    if (rep.sens && rep.sens->groups.empty()) {
-      // keep the prediction column, drop the requirement section
-      rep.sens.reset();
+      navigate::SensitivityResult sens =
+          navigate::sensitivity(truth, sensor, opt, std::isfinite(spec_m) ? spec_m : 1.0, at, floor_m);
+      for (const auto& e : estimates) rep.predicted_rms_m.push_back(e.names.empty() ? NAN : sens.predicted_rms_m(e));
+      if (std::isfinite(spec_m)) rep.sens = std::move(sens);  // the budget section only when asked for
     }
     navigate::write_nav_outputs(out_dir, rep);
 

@@ -198,12 +198,16 @@ std::string nav_html(const NavReport& r) {
     h << "</td></tr>";
   }
   h << "</table>";
+  h << "<p class='small'>Predicted RMS from σ: the horizontal error at " << fmt_num(T, "%g")
+    << " s that the calibration's own σ (statistical error of the estimated terms) explains, through the linear "
+       "budget below. A calibration much worse than its prediction plus the oracle is biased by effects its model "
+       "does not estimate (see <code>imuforge diagnose</code>).</p>";
 
   std::vector<io::ChartSeries> ser;
   for (std::size_t c = 0; c < res.candidates.size(); ++c) {
     const CandidateResult& cr = res.candidates[c];
-    io::ChartSeries med{cr.name + " median", io::chart_color(c), {}, false, false};
-    io::ChartSeries p95{cr.name + " 95th", io::chart_color(c), {}, false, true};
+    io::ChartSeries med{cr.name, io::chart_color(c), {}, false, false};
+    io::ChartSeries p95{"", io::chart_color(c), {}, false, true};
     for (std::size_t s = 0; s < cr.hpos_median_m.size(); ++s) {
       med.pts.push_back({static_cast<double>(s + 1), cr.hpos_median_m[s]});
       p95.pts.push_back({static_cast<double>(s + 1), cr.hpos_p95_m[s]});

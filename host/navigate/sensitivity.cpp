@@ -72,7 +72,7 @@ model::MeasureInput input_at(const sim::VehicleTruth& truth, std::size_t i) {
 SensitivityResult sensitivity(const sim::VehicleTruth& truth, const model::SensorModel& sensor, const ImpactOptions& opt,
                               double target_m, double at_s, double floor_m) {
   if (!(target_m > 0)) throw std::invalid_argument("--spec-m must be > 0");
-  if (!(at_s >= 1 && at_s <= opt.outage_s)) throw std::invalid_argument("the sensitivity time must lie in the outage");
+  if (!(at_s >= 1 && at_s <= opt.outage_s + 1e-3)) throw std::invalid_argument("the sensitivity time must lie in the outage");
   const double fs = truth.rate_hz;
   const std::size_t i0 = static_cast<std::size_t>(std::lround(opt.outage_start_s * fs));
   const std::size_t iT = i0 + static_cast<std::size_t>(std::lround(at_s * fs));

@@ -7,6 +7,9 @@
 #include <cstdint>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
+#include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/physics/vehicle.h"
 #include "host/sim/trajectory_file.h"
@@ -32,8 +35,16 @@ VehicleTruth vehicle_truth(const TrajectoryFile& tf, const model::SensorModel& m
 using RawSample = std::array<std::int32_t, 6>;  // ax ay az gx gy gz counts
 
 // Raw counts of one sensor realisation for samples [0, n). Deterministic in seed.
-// O(n); fills `out` (resized to n).
+// O(n); fills `out` (resized to n). realised (optional): the turn-on biases drawn.
 void vehicle_raw(const VehicleTruth& truth, const model::SensorModel& m, std::uint64_t seed, std::size_t n,
-                 std::vector<RawSample>& out);
+                 std::vector<RawSample>& out, nlohmann::json* realised = nullptr);
+
+// `imuforge simulate --trajectory`: the whole trajectory as log v1 (docs/formats.md § trajectory file):
+// segment −1 throughout (no fixture dwells), f_ref/w_ref = the true specific force and rate, temp_C = die,
+// chamber_C = ambient. Returns the truth JSON (path at 1 Hz, realised turn-on biases).
+io::LogMeta vehicle_log_meta(const TrajectoryFile& tf, const model::SensorModel& m, std::uint64_t seed,
+                             const std::string& serial);
+nlohmann::json simulate_vehicle_log(const TrajectoryFile& tf, const model::SensorModel& m, std::uint64_t seed,
+                                    io::LogWriter& out);
 
 }  // namespace imuforge::sim

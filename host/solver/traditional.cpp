@@ -1,7 +1,10 @@
 #include "host/solver/traditional.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <vector>
 
 namespace imuforge::solver {
 
@@ -31,9 +34,8 @@ int along_axis(const Eigen::Vector3d& v, int& sign) {
 
 TraditionalResult solve_traditional(const std::map<int, SegmentSummary>& segments, double T_ref_C) {
   if (segments.empty()) throw SolverError("traditional method: the log has no fixture dwell");
-  // The plateau nearest T_ref.
-  int plateau = -1;
-  double best = std::numeric_limits<double>::infinity();
+  // Plateaus by distance of their mean die temperature from T_ref: the nearest one that holds all six
+  // positions and both rate directions per axis is used (a campaign may soak at T_ref without a tumble).
   std::map<int, std::pair<double, long long>> pl;
   for (const auto& [id, s] : segments) {
     (void)id;
@@ -41,37 +43,52 @@ TraditionalResult solve_traditional(const std::map<int, SegmentSummary>& segment
     pl[s.plateau].first += s.T_C * static_cast<double>(s.n);
     pl[s.plateau].second += s.n;
   }
-  double plateau_T = 0;
+  std::vector<std::pair<double, int>> order;  // (|T − T_ref|, plateau)
+  std::map<int, double> plateau_T;
   for (const auto& [p, v] : pl) {
-    const double T = v.first / static_cast<double>(v.second);
-    if (std::abs(T - T_ref_C) < best) {
-      best = std::abs(T - T_ref_C);
-      plateau = p;
-      plateau_T = T;
-    }
+    plateau_T[p] = v.first / static_cast<double>(v.second);
+    order.push_back({std::abs(plateau_T[p] - T_ref_C), p});
   }
+  std::sort(order.begin(), order.end());
   Group acc[3][2], gyr[3][2];
-  for (const auto& [id, s] : segments) {
-    (void)id;
-    if (s.plateau != plateau) continue;
-    const Eigen::Vector3d ya(s.y[0], s.y[1], s.y[2]), yg(s.y[3], s.y[4], s.y[5]);
-    int sg = 0;
-    if (s.w_ref.norm() < kStaticRate_rad_s) {
-      const int k = along_axis(s.f_ref, sg);
-      if (k >= 0) {
-        Group& g = acc[k][sg];
-        g.y += ya; g.ref += s.f_ref; ++g.n;
-      }
-    } else if (s.w_ref.norm() > kRateRun_rad_s) {
-      const int k = along_axis(s.w_ref, sg);
-      if (k >= 0) {
-        Group& g = gyr[k][sg];
-        g.y += yg; g.ref += s.w_ref; ++g.n;
+  auto collect = [&](int plateau) {
+    for (int k = 0; k < 3; ++k)
+      for (int sg = 0; sg < 2; ++sg) acc[k][sg] = gyr[k][sg] = Group{};
+    for (const auto& [id, s] : segments) {
+      (void)id;
+      if (s.plateau != plateau) continue;
+      const Eigen::Vector3d ya(s.y[0], s.y[1], s.y[2]), yg(s.y[3], s.y[4], s.y[5]);
+      int sg = 0;
+      if (s.w_ref.norm() < kStaticRate_rad_s) {
+        const int k = along_axis(s.f_ref, sg);
+        if (k >= 0) {
+          Group& g = acc[k][sg];
+          g.y += ya; g.ref += s.f_ref; ++g.n;
+        }
+      } else if (s.w_ref.norm() > kRateRun_rad_s) {
+        const int k = along_axis(s.w_ref, sg);
+        if (k >= 0) {
+          Group& g = gyr[k][sg];
+          g.y += yg; g.ref += s.w_ref; ++g.n;
+        }
       }
     }
+    for (int k = 0; k < 3; ++k)
+      for (int sg = 0; sg < 2; ++sg)
+        if (acc[k][sg].n == 0 || gyr[k][sg].n == 0) return false;
+    return true;
+  };
+  int plateau = order.empty() ? -1 : order.front().second;
+  for (const auto& [d, p] : order) {
+    (void)d;
+    if (collect(p)) {
+      plateau = p;
+      break;
+    }
   }
+  if (plateau >= 0 && !collect(plateau)) collect(order.front().second);  // the nearest, for the error below
   TraditionalResult r;
-  r.plateau_T_C = plateau_T;
+  r.plateau_T_C = plateau >= 0 ? plateau_T[plateau] : 0.0;
   Eigen::Matrix3d IMa, IMg;
   Eigen::Vector3d ba = Eigen::Vector3d::Zero(), bg = Eigen::Vector3d::Zero();
   Eigen::Vector3d ya_sum = Eigen::Vector3d::Zero(), fa_sum = Eigen::Vector3d::Zero();
@@ -80,10 +97,10 @@ TraditionalResult solve_traditional(const std::map<int, SegmentSummary>& segment
     for (int sg = 0; sg < 2; ++sg) {
       if (acc[k][sg].n == 0)
         throw SolverError(std::string("traditional method: no static dwell with the reference along ") + kSign[sg] +
-                          kAxis[k] + " at the plateau nearest T_ref (six-position averages need all six)");
+                          kAxis[k] + " at any plateau (six-position averages need all six)");
       if (gyr[k][sg].n == 0)
         throw SolverError(std::string("traditional method: no rate run about ") + kSign[sg] + kAxis[k] +
-                          " at the plateau nearest T_ref (CW/CCW averages need both directions per axis)");
+                          " at any plateau (CW/CCW averages need both directions per axis)");
       for (Group* g : {&acc[k][sg], &gyr[k][sg]}) {
         g->y /= g->n;
         g->ref /= g->n;

@@ -3,7 +3,8 @@
 //     (I+M)_jk = (ȳ_j(+k) − ȳ_j(−k)) / (f(+k) − f(−k)),   b_j = mean over the six positions of ȳ_j − ((I+M) f̄)_j
 //   gyro: CW/CCW rate-table averages. For constant-rate dwells about ±e_k,
 //     (I+M)_jk = (ȳ_j(+) − ȳ_j(−)) / (ω_k(+) − ω_k(−)),     b_j = mean over axes of (ȳ_j(+)+ȳ_j(−))/2 − ((I+M) ω̄)_j
-// Only the dwells at the plateau nearest T_ref are used (a lab calibrates at room temperature).
+// Only the dwells of one plateau are used (a lab calibrates at room temperature): the one nearest T_ref
+// that holds all six positions and both rate directions per axis.
 // Several dwells with the same direction (a 24-position tumble has four per face) are averaged.
 #pragma once
 

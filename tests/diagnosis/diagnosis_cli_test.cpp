@@ -55,5 +55,5 @@ TEST(DiagnosisCli, WritesOutputsAndFindsTheEffect) {
     bad << "# format=imuforge-log\nthis is not a log\n";
   }
   EXPECT_EQ(run("--log " + (dir / "bad.csv").string() + " --model " + model + " --out " + (dir / "o4").string()), 2);
-  fs::remove_all(dir);
+  if (!std::getenv("KEEP")) fs::remove_all(dir);
 }

@@ -122,3 +122,66 @@ TEST(ModbusBenchImu, SensorModelErrorsAndNoiseAreApplied) {
   const double mean = sum / n, sd = std::sqrt(std::max(0.0, sum2 / n - mean * mean));
   EXPECT_GT(sd, 0.0);  // the consumer part is noisy at 1 kHz
 }
+
+// Several virtual IMUs on one bench (issue 14 item 5): each slot its own node, serial and sensor
+// realisation; a slot's nest rotation tilts what it senses; a dead slot never answers.
+TEST(ModbusBenchImu, SlotsAreSeparateUnitsWithTheirOwnNestAndNoise) {
+  benchsim::SlotPlan plan;
+  plan.slots = 4;
+  plan.buses = {"virtual:bench-slots-a-" + std::to_string(getpid()), "virtual:bench-slots-b-" + std::to_string(getpid())};
+  plan.first_serial = 500;
+  plan.first_node = 3;
+  plan.seed = 9;
+  plan.nest_sigma_rad = 0.5 * M_PI / 180;
+  plan.dead = {2};
+  const auto opts = benchsim::slot_imus(plan);
+  ASSERT_EQ(opts.size(), 3u);
+  EXPECT_EQ(opts[0].node_id, 3);
+  EXPECT_EQ(opts[1].node_id, 5);  // slot 3; slot 2 (node 4) is dead
+  EXPECT_EQ(opts[1].serial, 502u);
+  EXPECT_EQ(opts[1].bus, plan.buses[0]);
+  EXPECT_EQ(opts[2].bus, plan.buses[1]);
+  EXPECT_NE(opts[0].seed, opts[1].seed);
+  EXPECT_GT((opts[0].nest_error_rad - opts[1].nest_error_rad).norm(), 0.0);
+  EXPECT_EQ(benchsim::slot_imus(plan)[2].nest_error_rad, opts[2].nest_error_rad) << "seeded per slot";
+  benchsim::SlotPlan bad = plan;
+  bad.first_node = 126;
+  EXPECT_THROW(benchsim::slot_imus(bad), std::invalid_argument);
+
+  benchsim::WorldConfig wc;
+  wc.latitude_deg = 45.0;
+  benchsim::RegisterBank bank(fixture::RegisterMap::load(map_path("imuforge-table.json")),
+                              fixture::RegisterMap::load(map_path("imuforge-chamber.json")));
+  benchsim::Bench bench(benchsim::make_sim_world(wc), std::move(bank), 1.0);
+  std::vector<std::unique_ptr<benchsim::ImuLink>> imus;
+  for (const auto& o : opts) imus.push_back(benchsim::start_imu(bench, o));
+  benchsim::ImuSampler probe(bench, "", 1);
+  const double g = physics::normal_gravity_mps2(physics::Site{45.0, 0.0});
+  for (const auto& o : opts) {
+    auto client = can::Client::connect(o.bus, static_cast<std::uint8_t>(o.node_id));
+    EXPECT_EQ(client->identify().serial, o.serial);
+    Mean m;
+    double ax = 0, ay = 0;
+    std::mutex mu;
+    client->start_stream(200, proto::kChAll, [&](const can::StreamSample& s) {
+      std::lock_guard<std::mutex> l(mu);
+      ax += s.accel_counts[0];
+      ay += s.accel_counts[1];
+      m.add(s);
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    client->stop_stream();
+    std::lock_guard<std::mutex> l(mu);
+    ASSERT_GT(m.n, 20);
+    // Static, z down: the nest rotation e puts Exp([e×])·(0, 0, −g) on x and y: (−g e_y, +g e_x).
+    EXPECT_NEAR(ax / m.n * probe.accel_lsb(), -g * o.nest_error_rad.y(), 1.5 * probe.accel_lsb()) << o.node_id;
+    EXPECT_NEAR(ay / m.n * probe.accel_lsb(), g * o.nest_error_rad.x(), 1.5 * probe.accel_lsb()) << o.node_id;
+  }
+  // The dead slot's node (4) never answers.
+  can::Client::Options co;
+  co.timeout_ms = 200;
+  co.retries = 0;
+  auto dead = can::Client::connect(plan.buses[1], 4, co);
+  EXPECT_THROW(dead->identify(), can::Error);
+  for (auto& i : imus) i->stop();
+}

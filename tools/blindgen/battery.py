@@ -221,6 +221,8 @@ def simulate_log(imuforge, case_dir, truth, work, name, campaign_path=None):
     if not campaign_path:
         write_campaign(truth['scenario'], camp, truth['seed'])
     log = os.path.join(d, 'log.bin')
+    if os.path.exists(log) and os.path.getmtime(log) > os.path.getmtime(os.path.join(case_dir, 'sensor.json')):
+        return log, d  # simulated already from this sensor file
     p = subprocess.run([imuforge, 'simulate', '--campaign', camp, '--sensor', os.path.join(case_dir, 'sensor.json'),
                         '--seed', str(truth['seed']), '--out', log, '--quiet'], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     if p.returncode != 0:

@@ -20,7 +20,12 @@ def scenario_of(seed, spec):
 
 def write_campaign(spec, path, seed):
     scn = scenario_of(seed, spec)
-    top_rate = max(spec.get('rates_dps', [300])) * 1.25 + 50
+    # table limits: moves between poses never faster than the fastest commanded rate (which blindgen keeps
+    # at <= 80 % of the gyro's range), so no move saturates the sensor; sines stay inside these limits
+    # (the moves run all three axes at once: the inner and middle axes are held to a third of the top rate so
+    # that the combined body rate stays below the range; only the outer axis spins at the top rate)
+    top_rate = max(spec.get('rates_dps', [300]))
+    gimbal_rate = max(spec.get('rates_dps', [300])[:2])  # the inner/middle 'tumble' rates (full: top/3)
     phases = []
     cur = None
     for s in scn.segments:
@@ -38,7 +43,8 @@ def write_campaign(spec, path, seed):
             gi, A, f = s.sine
             amp = [0.0, 0.0, 0.0]
             fr = [0.0, 0.0, 0.0]
-            amp[gi] = math.degrees(A)
+            lim = (top_rate if gi == 2 else gimbal_rate) * 0.95
+            amp[gi] = min(math.degrees(A), lim / (2 * math.pi * f))  # sine peak rate inside the axis limit
             fr[gi] = f
             cur['steps'].append({'type': 'position', 'position_deg': ang, 'dwell_s': 0.5, 'label': 'start ' + s.label})
             cur['steps'].append({'type': 'sine', 'amplitude_deg': amp, 'frequency_hz': fr, 'dwell_s': s.dur, 'label': s.label})
@@ -53,9 +59,9 @@ def write_campaign(spec, path, seed):
         '_comment': 'written by tools/blindgen/campaign.py from a blindgen scenario',
         'site': {'latitude_deg': scn.lat, 'height_m': scn.h},
         'sample_rate_hz': scn.fs,
-        'table': {'axes': [{'name': 'inner', 'axis': 'z', 'max_rate_dps': top_rate, 'max_accel_dps2': 2000},
-                           {'name': 'middle', 'axis': 'x', 'max_rate_dps': top_rate, 'max_accel_dps2': 2000},
-                           {'name': 'outer', 'axis': 'z', 'max_rate_dps': top_rate, 'max_accel_dps2': 2000}],
+        'table': {'axes': [{'name': 'inner', 'axis': 'z', 'max_rate_dps': gimbal_rate, 'max_accel_dps2': 500},
+                           {'name': 'middle', 'axis': 'x', 'max_rate_dps': gimbal_rate, 'max_accel_dps2': 500},
+                           {'name': 'outer', 'axis': 'z', 'max_rate_dps': top_rate, 'max_accel_dps2': 500}],
                   'settle_s': 0.2, 'mount': {'rotation_deg': [0, 0, 0], 'lever_arm_m': scn.r.tolist()}},
         'chamber': {'initial_C': scn.T0, 'ramp_limit_C_per_min': scn.chamber['slew_C_per_min'], 'tau_s': scn.chamber['air_tau_s']},
         'sequences': {},

@@ -1,0 +1,58 @@
+// The stochastic model the diagnosis carries into its likelihood (docs/diagnosis.md § 2).
+//
+// Per axis: white noise N, quantization Q, one first-order Gauss-Markov bias (stationary σ, correlation
+// time T: what a bias instability looks like over the minutes a calibration lasts) and a rate random walk
+// K. It is fitted to the Allan variance of the static dwells FIRST, before any deterministic effect is
+// tested. Then the block means of a segment are whitened by a Kalman filter that carries the Gauss-Markov
+// and random-walk bias as states: generalised least squares, exactly, in O(blocks · parameters). A slow
+// drift therefore enters the likelihood as correlated noise and cannot masquerade as a deterministic
+// effect; the blocks of one segment are no longer counted as independent evidence.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "host/diagnosis/stats.h"
+
+namespace imuforge::diagnosis {
+
+struct StochasticModel {
+  double Q = 0;        // quantization, unit
+  double N = 0;        // white noise density, unit/√Hz
+  double gm_sigma = 0; // Gauss-Markov stationary σ, unit
+  double gm_tau_s = 0; // its correlation time, s (0 = none)
+  double K = 0;        // rate random walk, unit·√Hz
+  double chi2 = 0;     // Allan-fit χ² (Σ edf/2 (AVAR − fit)²/fit²)
+  int n_points = 0;
+  // Allan variance of the model at cluster time tau_s.
+  double avar(double tau_s) const;
+  // Variance of the mean of white + quantization noise over tau_s (what a block mean carries
+  // independently of its neighbours).
+  double white_var(double tau_s) const;
+};
+
+// Allan variance of a first-order Gauss-Markov process of unit stationary variance and correlation time T.
+double gauss_markov_avar(double tau_s, double T_s);
+
+// Fits {Q, N, GM(σ, T), K} to an Allan curve: T on a log grid between the shortest and 4× the longest
+// cluster time, the amplitudes by non-negative weighted least squares (every subset), best χ² kept.
+// Without points returns a white model with N = 0 (the caller supplies a fallback).
+StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>& pts);
+
+// GLS whitening of one segment's block means by a Kalman filter over the bias states (GM, RW).
+// Blocks in time order: mid time t_s, duration dur_s, observation row [z | x] (1 + P columns).
+// Outputs the innovations of every column and the innovation variance S per block, so that
+//   Σ (ν_z − ν_x θ)² / S  is the exact −2 log-likelihood (up to a constant) of θ for this segment.
+// rw_prior_var: variance of the random-walk bias at the segment start (it is not known from outside).
+// O(n · P).
+void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
+                    const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, Eigen::Ref<Eigen::MatrixXd> innov,
+                    Eigen::Ref<Eigen::VectorXd> S);
+
+// Covariance of two block means of one segment under the model (mid times ti, tj, durations di, dj);
+// i == j includes the white part. Used for the variance of a segment mean.
+double block_covariance(const StochasticModel& m, double ti, double di, double tj, double dj, bool same, double t_start,
+                        double rw_prior_var);
+
+}  // namespace imuforge::diagnosis
