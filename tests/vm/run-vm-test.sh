@@ -76,7 +76,7 @@ if [ \$ok = 1 ]; then
   echo "VMTEST modules PASS can can-dev can-raw vcan can-isotp"
   candump -L -r 16777216 vcan0 > /tmp/candump.log 2>/tmp/candump.err &
   cpid=\$!
-  imuforge-vimu --bus socketcan:vcan0 --node 1 --serial 777 > /tmp/vimu.log 2>&1 &
+  imuforge-vimu --bus socketcan:vcan0 --node 1 --serial 777 --max-catch-up 60000 > /tmp/vimu.log 2>&1 &
   vpid=\$!
   sleep 1
   can_vm_driver run --bus socketcan:vcan0 --node 1 --serial 777 --slow-s $slow_s --stream-s $stream_s --bench-s $bench_s --counts-out /tmp/host_counts || ok=0
@@ -93,6 +93,8 @@ INIT
 chmod +x "$root/init"
 (cd "$root" && find . | cpio -o -H newc --quiet | gzip -1) > "$work/initramfs.cpio.gz"
 
+# no_timer_check: on a loaded host the emulated CPU can be too slow for the kernel's boot-time check of
+# the IO-APIC timer, which then panics ("IO-APIC + timer doesn't work!"); the check proves nothing here.
 # The deliberate load: busy loops at normal priority, bounded by timeout, killed when the VM is done.
 load_pids=()
 stop_load() { for p in "${load_pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
@@ -107,7 +109,7 @@ log="$work/console.log"
 start=$(date +%s)
 timeout 400 qemu-system-x86_64 -accel tcg -cpu max -m 256 -smp 2 -nographic -no-reboot -net none \
   -kernel "$kernel" -initrd "$work/initramfs.cpio.gz" \
-  -append "console=ttyS0 quiet loglevel=3 panic=-1" > "$log" 2>&1 || true
+  -append "console=ttyS0 quiet loglevel=3 panic=-1 no_timer_check" > "$log" 2>&1 || true
 end=$(date +%s)
 stop_load
 grep -aE "^(VMBOOT|VMTEST|BENCH|VMINFO)|imuforge-vimu:" "$log" | tr -d '\r' || true
