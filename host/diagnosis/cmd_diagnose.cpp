@@ -10,6 +10,7 @@
 #include "host/app/command.h"
 #include "host/diagnosis/diagnose.h"
 #include "host/diagnosis/sources.h"
+#include "host/poses/detect.h"
 #include "host/model/sensor_model.h"
 
 namespace {
@@ -22,19 +23,24 @@ int run_diagnose(int argc, char** argv) {
                argv[0]};
   std::string log_path, model_path, sim_path, out_dir, mode = "auto", cv = "auto", sensor_path;
   diagnosis::Options opt;
+  bool explain_poses = false;
   app.add_option("--log", log_path, "log to diagnose (log v1, CSV or binary)")->required();
   app.add_option("--model", model_path, "model spec JSON in use (docs/formats.md), a cal.json with a \"model\", or 'basic'")->required();
   app.add_option("--sim", sim_path, "simulation log of the same campaign: its static Allan curve is the claimed noise, "
                                     "and it supplies references the real log lacks");
   app.add_option("--sensor", sensor_path, "sensor model JSON: its white_noise densities are the claimed noise");
   app.add_option("--out", out_dir, "output folder (diagnosis.json, report.html)")->required();
+  app.add_flag("--explain-poses", explain_poses,
+               "reference-free: print every stretch of the recording (start, end, duration, mean, verdict/reason)");
   app.add_option("--mode", mode, "fixture | reference-free | auto (reference-free when the log has no reference)")
       ->check(CLI::IsMember({"auto", "fixture", "reference-free"}));
   app.add_option("--cv", opt.cv, "withholding: segment (K-fold by segment) | plateau (leave-one-plateau-out) | auto")
       ->check(CLI::IsMember({"auto", "segment", "plateau"}));
   app.add_option("--folds", opt.folds, "K for K-fold by segment")->check(CLI::Range(2, 100));
   app.add_option("--alpha", opt.alpha, "family-wise significance level (Bonferroni across candidates)")->check(CLI::Range(1e-12, 0.5));
-  app.add_option("--max-steps", opt.max_steps, "greedy forward-selection steps")->check(CLI::Range(0, 50));
+  app.add_option("--max-steps", opt.max_steps, "forward-selection steps (each followed by a backward pass)")->check(CLI::Range(0, 50));
+  std::string emit_model;
+  app.add_option("--emit-model", emit_model, "write the model in use plus the selected effects (model spec JSON) here");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -90,8 +96,11 @@ int run_diagnose(int argc, char** argv) {
     }
     std::unique_ptr<diagnosis::ReferenceFreeSource> rf;
     if (mode == "reference-free" || (mode == "auto" && !any_ref)) {
-      rf = std::make_unique<diagnosis::ReferenceFreeSource>(*src, real.meta().gravity_mps2);
+      rf = std::make_unique<diagnosis::ReferenceFreeSource>(*src, real.meta().gravity_mps2, poses::DetectOptions{},
+                                                            real.meta().accel_lsb_mps2, real.meta().gyro_lsb_rad_s,
+                                                            real.meta().sample_rate_hz);
       src = rf.get();
+      if (explain_poses) std::printf("%s", poses::explain_table(rf->detection()).c_str());
       std::printf("reference-free: %d static poses (%.0f s); gravity-magnitude fit with %d parameters: RMS over poses %.4g -> %.4g m/s^2\n",
                   rf->info().poses, rf->info().static_s, rf->info().calibrated_params, rf->info().accel_rms_before, rf->info().accel_rms_after);
     } else if (mode == "fixture" && !any_ref) {
@@ -107,6 +116,30 @@ int run_diagnose(int argc, char** argv) {
     if (ec) {
       std::fprintf(stderr, "imuforge diagnose: cannot create '%s': %s\n", out_dir.c_str(), ec.message().c_str());
       return app::kExitFailed;
+    }
+    if (!emit_model.empty()) {
+      // The base model file as given (or the basic model), plus every selected deterministic effect.
+      nlohmann::json mj;
+      if (model_path == "basic") {
+        mj = {{"format", "imuforge-model"}, {"version", 1}, {"name", "basic"}, {"T_ref_C", 25.0}, {"effects", nlohmann::json::object()}};
+        for (const auto& e : base.effect_names) mj["effects"][e] = nlohmann::json::object();
+      } else {
+        std::ifstream f(model_path);
+        mj = nlohmann::json::parse(f);
+        if (mj.is_object() && mj.contains("model") && mj["model"].is_object()) mj = mj["model"];
+      }
+      for (const auto& st : r.selected) mj["effects"][st.sensor + "." + st.effect] = nlohmann::json::object();
+      mj["name"] = mj.value("name", std::string("model")) + "+diagnosis";
+      const std::string tmp = emit_model + ".tmp";
+      {
+        std::ofstream o(tmp);
+        o << mj.dump(2) << "\n";
+        if (!o) {
+          std::fprintf(stderr, "imuforge diagnose: cannot write %s\n", emit_model.c_str());
+          return app::kExitFailed;
+        }
+      }
+      std::filesystem::rename(tmp, emit_model);  // never a partial model file
     }
     nlohmann::json j = diagnosis::to_json(r);
     j["inputs"] = {{"log", log_path}, {"model", model_path}, {"sim", sim_path}, {"mode", rf ? "reference-free" : "fixture"}};

@@ -150,6 +150,11 @@ struct BlockAcc {
   double maxw = 0, fmin[3] = {}, fmax[3] = {}, Tmin = 1e300, Tmax = -1e300;
   std::array<std::vector<double>, kNumAxes> series;
   std::array<double, kNumAxes> bin_sum{};
+  std::array<double, kNumAxes> dz2{};
+  long long ndz = 0;
+  std::vector<double> Tseries;   // bin means of the temperature (NaN without one), aligned with `series`
+  double binT_sum = 0;
+  long binT_n = 0;
   long bin_n = 0;
 };
 
@@ -226,6 +231,8 @@ class ShiftedReference {
       if (b->t_s - a->t_s > gap_) {  // a gap in the reference: take the nearer side, never bridge it
         if (tq - a->t_s < b->t_s - tq) b = a;
         else a = b;
+      } else if (jump(*a, *b)) {
+        b = a;  // an instantaneous pose change: the input holds until the sample that shows the new pose
       }
     }
     const double u = b->t_s > a->t_s ? (tq - a->t_s) / (b->t_s - a->t_s) : 0.0;
@@ -233,6 +240,12 @@ class ShiftedReference {
       f[k] = a->f[k] + u * (b->f[k] - a->f[k]);
       w[k] = a->w[k] + u * (b->w[k] - a->w[k]);
     }
+  }
+  // Larger than any motion between two samples of a real table (0.5 m/s², 0.2 rad/s): a step in the reference.
+  static bool jump(const Ref& a, const Ref& b) {
+    for (int k = 0; k < 3; ++k)
+      if (std::fabs(b.f[k] - a.f[k]) > 0.5 || std::fabs(b.w[k] - a.w[k]) > 0.2) return true;
+    return false;
   }
   SampleSource& src_;
   double ahead_, hist_, h_, gap_;
@@ -282,10 +295,46 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   std::array<std::vector<double>, kNumAxes> run_series;
   int run_unit = -1;
   double run_Tmin = 1e300, run_Tmax = -1e300;
+  std::vector<double> run_T;
   // A static run loses opt.settle_s at both ends: an output that lags (or leads) its reference by a latency
   // or an accumulated clock error still moves there, and a few such samples would read as drift noise.
   const std::size_t settle_bins = static_cast<std::size_t>(std::ceil(opt.settle_s * p0.fs / static_cast<double>(m0)));
   auto flush_run = [&]() {
+    // A soak whose die temperature still settles: the base model's own thermal terms (bias in T, T²) would
+    // read as low-frequency noise. Regress [1, T, T²] out of the run first (it also takes the smooth
+    // Ṫ-driven part of a settling soak); below 0.05 °C of range the run is used as is.
+    bool have_T = !run_T.empty() && run_T.size() == run_series[0].size();
+    double tmin = 1e300, tmax = -1e300, tm = 0;
+    for (double T : run_T) {
+      if (!std::isfinite(T)) have_T = false;
+      tmin = std::min(tmin, T);
+      tmax = std::max(tmax, T);
+      tm += T;
+    }
+    if (have_T && tmax - tmin > 0.05 && run_T.size() > 8) {
+      tm /= static_cast<double>(run_T.size());
+      Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+      for (double T : run_T) {
+        const Eigen::Vector3d x(1.0, T - tm, (T - tm) * (T - tm));
+        H += x * x.transpose();
+      }
+      Eigen::LDLT<Eigen::Matrix3d> ldlt(H);
+      for (int a = 0; a < kNumAxes; ++a) {
+        auto& rs = run_series[static_cast<std::size_t>(a)];
+        Eigen::Vector3d g = Eigen::Vector3d::Zero();
+        for (std::size_t i = 0; i < rs.size(); ++i) {
+          const double d = run_T[i] - tm;
+          g += Eigen::Vector3d(1.0, d, d * d) * rs[i];
+        }
+        const Eigen::Vector3d c = ldlt.solve(g);
+        if (!c.allFinite()) continue;
+        for (std::size_t i = 0; i < rs.size(); ++i) {
+          const double d = run_T[i] - tm;
+          rs[i] -= c[1] * d + c[2] * d * d;
+        }
+      }
+    }
+    run_T.clear();
     for (int a = 0; a < kNumAxes; ++a) {
       auto& rs = run_series[static_cast<std::size_t>(a)];
       if (rs.size() > 2 * settle_bins) {
@@ -326,13 +375,13 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
     double frange = 0;
     for (int k = 0; k < 3; ++k) frange = std::max(frange, acc.fmax[k] - acc.fmin[k]);
     const double Trange = acc.nT > 0 ? acc.Tmax - acc.Tmin : 0.0;
-    b.is_static = acc.maxw < 0.01 && frange < 0.05 && Trange < opt.block_temp_tol_C && b.n >= 8;
+    b.is_static = acc.maxw < 0.01 && frange < 0.05 && Trange < 2.0 * opt.block_temp_tol_C && b.n >= 8;
     // Static blocks of one segment are joined into one Allan series (long τ needs long records).
     // ... but only while the temperature stays within the block tolerance: a thermal ramp would otherwise
     // turn bias_temp / temp_rate drift into apparent low-frequency noise and hide them.
     const double bTmin = acc.nT > 0 ? acc.Tmin : run_Tmin, bTmax = acc.nT > 0 ? acc.Tmax : run_Tmax;
     const bool temp_ok = acc.nT == 0 || run_Tmin > run_Tmax ||
-                         std::max(run_Tmax, bTmax) - std::min(run_Tmin, bTmin) < opt.block_temp_tol_C;
+                         std::max(run_Tmax, bTmax) - std::min(run_Tmin, bTmin) < opt.static_run_temp_tol_C;
     if (b.is_static && b.unit == run_unit && temp_ok) {
       run_Tmin = std::min(run_Tmin, bTmin);
       run_Tmax = std::max(run_Tmax, bTmax);
@@ -341,6 +390,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         const auto& bs = acc.series[static_cast<std::size_t>(a)];
         rs.insert(rs.end(), bs.begin(), bs.end());
       }
+      run_T.insert(run_T.end(), acc.Tseries.begin(), acc.Tseries.end());
     } else {
       flush_run();
       if (b.is_static) {
@@ -348,7 +398,12 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         run_Tmin = acc.nT > 0 ? acc.Tmin : 1e300;
         run_Tmax = acc.nT > 0 ? acc.Tmax : -1e300;
         for (int a = 0; a < kNumAxes; ++a) run_series[static_cast<std::size_t>(a)] = acc.series[static_cast<std::size_t>(a)];
+        run_T = acc.Tseries;
       }
+    }
+    if (b.is_static) {
+      for (int a = 0; a < kNumAxes; ++a) out.dz2[static_cast<std::size_t>(a)] += acc.dz2[static_cast<std::size_t>(a)];
+      out.ndz += acc.ndz;
     }
     out.blocks.push_back(std::move(b));
     acc = BlockAcc{};
@@ -386,6 +441,24 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       // Per sensor: the reference at the sensor's shifted time (identical to `in` without a shift).
       model::MeasureInput ins[2] = {in, in};
       double us[kNumAxes];
+      // An instantaneous pose change (a step: a large change into this sample, none out of it): the first
+      // sample of the new pose reads the old or the new pose depending on where in the sample interval the
+      // change fell and on a sub-sample latency, which no timing model can say. It is left out.
+      bool step_in = false, quiet_out = true;
+      if (have_prev && prev.has_ref && have_next && nxt.has_ref)
+        for (int k = 0; k < 3; ++k) {
+          if (std::fabs(cur.f[k] - prev.f[k]) > 0.5 || std::fabs(cur.w[k] - prev.w[k]) > 0.2) step_in = true;
+          if (std::fabs(nxt.f[k] - cur.f[k]) > 0.05 || std::fabs(nxt.w[k] - cur.w[k]) > 0.02) quiet_out = false;
+        }
+      if (step_in && quiet_out) {
+        // last_seg / last_had_ref keep the previous sample's: the next one still starts a new segment.
+        prev = cur;
+        have_prev = true;
+        cur = nxt;
+        have_cur = have_next;
+        if (have_cur) have_next = src.next(nxt);
+        continue;
+      }
       for (int s = 0; s < 2; ++s) {
         if (shift[s].active()) src.eval(cur.t_s - shift[s].at(in.t_s), ins[s]);
         for (int k = 0; k < 3; ++k) us[3 * s + k] = s == 0 ? ins[0].f[k] : ins[1].w[k];
@@ -432,19 +505,28 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         b.z[a] += z[a];
         acc.bin_sum[static_cast<std::size_t>(a)] += z[a];
       }
+      if (std::isfinite(cur.temp_C)) {
+        acc.binT_sum += cur.temp_C;
+        ++acc.binT_n;
+      }
       if (++acc.bin_n == m0) {
+        acc.Tseries.push_back(acc.binT_n > 0 ? acc.binT_sum / static_cast<double>(acc.binT_n) : kNaN);
+        acc.binT_sum = 0;
+        acc.binT_n = 0;
         for (int a = 0; a < kNumAxes; ++a) {
           acc.series[static_cast<std::size_t>(a)].push_back(acc.bin_sum[static_cast<std::size_t>(a)] / static_cast<double>(m0));
           acc.bin_sum[static_cast<std::size_t>(a)] = 0;
         }
         acc.bin_n = 0;
       }
-      if (b.n > 0 && have_prev && prev.has_ref) {
+      // Sample-to-sample scatter, from static blocks only and after settle_s (close_block): a pose jump read
+      // late by a latency or clock error must not inflate the white-noise floor.
+      if (b.n > 0 && have_prev && prev.has_ref && cur.t_s - b.t0 > opt.settle_s) {
         for (int a = 0; a < kNumAxes; ++a) {
           const double zp = zprev[a];
-          out.dz2[static_cast<std::size_t>(a)] += (z[a] - zp) * (z[a] - zp);
+          acc.dz2[static_cast<std::size_t>(a)] += (z[a] - zp) * (z[a] - zp);
         }
-        ++out.ndz;
+        ++acc.ndz;
       }
       for (int a = 0; a < kNumAxes; ++a) zprev[a] = z[a];
       ++b.n;
@@ -1275,6 +1357,31 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   }
   R.gap_after = gap_of(cur);
 
+  // Timing estimate of the selected model, before any withdrawal (the wrapper re-evaluates the reference at
+  // it: a large shift leaves a gap the linear term cannot close, and that gap must not veto its own fix).
+  for (int si = 0; si < 2; ++si) {
+    const Sensor s = static_cast<Sensor>(si);
+    if (!cur_effects.count({si, static_cast<int>(Effect::kTiming)})) continue;
+    double swl = 0, sl = 0, swp = 0, sp = 0;
+    for (int a = 3 * si; a < 3 * si + 3; ++a) {
+      const auto& ad = ax[static_cast<std::size_t>(a)];
+      Fit f = fit_axis(ad, cols_for(ad, cur), -1);
+      for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) {
+        const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f.kept[static_cast<std::size_t>(i)])]);
+        if (pi.sensor != s || pi.effect != Effect::kTiming || !(f.cov(i, i) > 0)) continue;
+        const double w = 1.0 / f.cov(i, i);
+        if (pi.component == "latency_s") { swl += w; sl += w * f.theta[i]; }
+        else { swp += w; sp += w * f.theta[i]; }
+      }
+    }
+    auto& te = R.timing_est[static_cast<std::size_t>(si)];
+    te.valid = true;
+    te.latency_s = swl > 0 ? sl / swl : 0.0;
+    te.ppm = swp > 0 ? sp / swp : 0.0;
+    te.sigma_latency_s = swl > 0 ? 1.0 / std::sqrt(swl) : 1.0;
+    te.sigma_ppm = swp > 0 ? 1.0 / std::sqrt(swp) : 1.0;
+  }
+
   // ---- Unexplained: axes still above their noise. Effects of that sensor that leave the gap where it was
   // are withdrawn (they are not an explanation); the residual's signature is ranked.
   auto over = [&](const Gap& g, int a) { return g.chi2_dof[static_cast<std::size_t>(a)] > o.unexplained_chi2_dof; };
@@ -1544,25 +1651,16 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   DiagnosisResult R = first;
   Options o = opt;
   for (int it = 1; it <= opt.max_timing_iterations; ++it) {
-    // Per sensor: inverse-variance combination of the per-axis timing relaxation of the final fit.
+    // Per sensor: the timing correction of the selected model (inverse-variance over the axes).
     bool any = false, moved = false;
     TimeShift next[2] = {shift[0], shift[1]};
     for (int si = 0; si < 2; ++si) {
-      const Sensor s = static_cast<Sensor>(si);
-      if (!R.final_ids.count(model::effect_params(s, Effect::kTiming).front())) continue;
+      const auto& te = R.timing_est[static_cast<std::size_t>(si)];
+      if (!te.valid) continue;
       any = true;
-      double swl = 0, sl = 0, swp = 0, sp = 0;
-      for (const auto& pe : R.final_params) {
-        if (pe.name.rfind(std::string(model::sensor_name(s)) + ".timing.", 0) != 0 || !(pe.sigma > 0)) continue;
-        const double w = 1.0 / (pe.sigma * pe.sigma);
-        if (pe.name.find("latency_s") != std::string::npos) { swl += w; sl += w * pe.value; }
-        else { swp += w; sp += w * pe.value; }
-      }
-      const double dl = swl > 0 ? sl / swl : 0.0, dp = swp > 0 ? sp / swp : 0.0;
-      const double sgl = swl > 0 ? 1.0 / std::sqrt(swl) : 1.0, sgp = swp > 0 ? 1.0 / std::sqrt(swp) : 1.0;
-      if (std::fabs(dl) > 0.1 * sgl || std::fabs(dp) > 0.1 * sgp) moved = true;
-      next[si].latency_s += dl;
-      next[si].ppm += dp;
+      if (std::fabs(te.latency_s) > 0.1 * te.sigma_latency_s || std::fabs(te.ppm) > 0.1 * te.sigma_ppm) moved = true;
+      next[si].latency_s += te.latency_s;
+      next[si].ppm += te.ppm;
       // The linearised step can overshoot far from the optimum: cap it to what it can still describe.
       next[si].latency_s = std::clamp(next[si].latency_s, -1.0, 1.0);
       next[si].ppm = std::clamp(next[si].ppm, -1000.0, 1000.0);

@@ -79,7 +79,7 @@ struct Options {
   std::string cv = "auto";          // "segment", "plateau" (leave-one-plateau-out) or "auto"
   double alpha = 0.01;              // family-wise level; each candidate is tested at alpha / #candidates
   int max_steps = 20;               // forward steps (each followed by a backward pass)
-  int max_timing_iterations = 5;    // re-evaluations of the reference at the estimated timing shift
+  int max_timing_iterations = 8;    // re-evaluations of the reference at the estimated timing shift
   double min_shrink_pct = 2.0;      // a selected effect must shrink the held-out χ² excess by at least this (%)
   // A determined magnitude (> 3σ) outside the plausible range (plausible_limit) disqualifies a candidate.
   bool check_plausibility = true;
@@ -100,6 +100,8 @@ struct Options {
   double block_temp_tol_C = 0.5;
   int max_blocks = 6000;            // sets the minimum block length from the log duration
   double settle_s = 1.5;            // trimmed from both ends of a static run before its Allan variance
+  double static_run_temp_tol_C = 5.0;  // static blocks of one segment join one Allan run within this range
+                                       // (a quadratic in T is regressed out of the run first)
   // Candidate effects; empty = every deterministic catalog effect not in the base model.
   std::vector<std::pair<model::Sensor, model::Effect>> candidates;
   // Claimed white-noise density per axis (unit/√Hz) for the Allan comparison; NaN = not claimed.
@@ -209,6 +211,11 @@ struct DiagnosisResult {
   std::set<model::ParamId> final_ids;      // parameters of the final model (base + selected)
   std::array<double, 2> timing_shift_latency_s{}, timing_shift_ppm{};  // reference re-evaluated at this shift
   int timing_iterations = 0;
+  struct TimingEstimate {
+    bool valid = false;
+    double latency_s = 0, ppm = 0, sigma_latency_s = 0, sigma_ppm = 0;
+  };
+  std::array<TimingEstimate, 2> timing_est;  // selected timing correction (accel, gyro), before withdrawal
   std::vector<StochasticScore> stochastic;
   std::vector<Cell> cells;
   std::vector<ParamEstimate> final_params; // the augmented model fitted on all data

@@ -87,6 +87,21 @@ StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>&
   return best;
 }
 
+namespace {
+// A block mean over d of a Gauss-Markov process of correlation time T, against its value g at mid-block:
+// mean = alpha·g + e, Var(mean) = vm·σ² (both → 1 for d ≪ T), so the part not carried by the state is
+// (vm − alpha²)·σ². Without it a GM of T ≪ d would count as a full random bias per block.
+void gm_block(double d, double T, double& alpha, double& vm) {
+  const double x = d / T;
+  if (x < 1e-6) {
+    alpha = vm = 1.0;
+    return;
+  }
+  alpha = 2.0 / x * (1.0 - std::exp(-x / 2.0));
+  vm = 2.0 / (x * x) * (x - 1.0 + std::exp(-x));
+}
+}  // namespace
+
 void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                     const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, Eigen::Ref<Eigen::MatrixXd> innov,
                     Eigen::Ref<Eigen::VectorXd> S) {
@@ -108,13 +123,17 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
       P(0, 0) += s2 * (1.0 - phi * phi);
       P(1, 1) += m.K * m.K * dt;
     }
-    const double R = std::max(m.white_var(std::max(dur_s[static_cast<std::size_t>(i)], 1e-9)), 1e-300);
-    const double hPh = P(0, 0) + P(1, 1) + 2.0 * P(0, 1);
+    const double d = std::max(dur_s[static_cast<std::size_t>(i)], 1e-9);
+    double alpha = 1.0, vm = 1.0;
+    if (s2 > 0) gm_block(d, m.gm_tau_s, alpha, vm);
+    const double R = std::max(m.white_var(d) + s2 * std::max(vm - alpha * alpha, 0.0), 1e-300);
+    const Eigen::Vector2d h(alpha, 1.0);
+    const double hPh = h.dot(P * h);
     const double Si = hPh + R;
-    Eigen::RowVectorXd nu = rows.row(i) - (M.row(0) + M.row(1));
+    Eigen::RowVectorXd nu = rows.row(i) - (alpha * M.row(0) + M.row(1));
     innov.row(i) = nu;
     S[i] = Si;
-    Eigen::Vector2d Kg((P(0, 0) + P(0, 1)) / Si, (P(1, 0) + P(1, 1)) / Si);
+    Eigen::Vector2d Kg = P * h / Si;
     M += Kg * nu;
     P -= Kg * Kg.transpose() * Si;
     P = 0.5 * (P + P.transpose());
@@ -124,7 +143,12 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
 double block_covariance(const StochasticModel& m, double ti, double di, double tj, double dj, bool same, double t_start,
                         double rw_prior_var) {
   double c = 0;
-  if (m.gm_tau_s > 0) c += m.gm_sigma * m.gm_sigma * std::exp(-std::fabs(ti - tj) / m.gm_tau_s);
+  if (m.gm_tau_s > 0) {
+    double ai = 1, vi = 1, aj = 1, vj = 1;
+    gm_block(std::max(di, 1e-9), m.gm_tau_s, ai, vi);
+    gm_block(std::max(dj, 1e-9), m.gm_tau_s, aj, vj);
+    c += m.gm_sigma * m.gm_sigma * (same ? vi : ai * aj * std::exp(-std::fabs(ti - tj) / m.gm_tau_s));
+  }
   c += rw_prior_var + m.K * m.K * std::max(0.0, std::min(ti, tj) - t_start);
   if (same) c += m.white_var(std::max(std::min(di, dj), 1e-9));
   return c;

@@ -75,13 +75,15 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       std::vector<std::string> by;
       for (const auto& st : r.selected)
         if (st.sensor == sensor) by.push_back(st.effect);
-      if (by.empty()) {
+      if (!std::isfinite(r.gap_after.chi2_dof[u])) {
+        line += "too short to tell (fewer than 3 segments: nothing can be withheld)";
+      } else if (by.empty()) {
         line += "at noise with the model as given";
       } else {
         line += "explained by";
         for (std::size_t i = 0; i < by.size(); ++i) line += (i ? ", " : " ") + by[i];
       }
-      line += " (held-out chi2/dof " + fmt("%.3g", r.gap_after.chi2_dof[u]) + ")";
+      if (std::isfinite(r.gap_after.chi2_dof[u])) line += " (held-out chi2/dof " + fmt("%.3g", r.gap_after.chi2_dof[u]) + ")";
     }
     const auto& m = r.stoch[u];
     if (m.gm_sigma > 0) line += "; drift: Gauss-Markov sigma " + fmt("%.3g", m.gm_sigma) + ", tau " + fmt("%.3g", m.gm_tau_s) + " s";
@@ -434,10 +436,16 @@ std::string report_html(const DiagnosisResult& r) {
   std::ostringstream h;
   h << "<!DOCTYPE html><html><head><meta charset='utf-8'><title>imuforge diagnosis</title>"
     << "<style>body{font-family:sans-serif;max-width:1100px;margin:1em auto}table{border-collapse:collapse}"
-    << "td,th{border:1px solid #ccc;padding:2px 6px;font-size:12px}pre{background:#f6f6f6;padding:8px}</style></head><body>";
+    << "td,th{border:1px solid #ccc;padding:2px 6px;font-size:12px}pre{background:#f6f6f6;padding:8px;white-space:pre-wrap}ul.verdict li{font-size:15px;margin:3px 0}</style></head><body>";
   h << "<h1>Sim-to-real gap diagnosis</h1>";
-  h << "<pre>" << esc(summary_text(r)) << "</pre>";
-  h << "<h2>Where: held-out residuals per axis and condition</h2>" << heatmap_svg(r);
+  // Verdict first: one line per axis; then the evidence.
+  h << "<h2>Verdict</h2><ul class=\"verdict\">";
+  for (const auto& l : verdict_lines(r)) h << "<li>" << esc(l) << "</li>";
+  h << "</ul>";
+  h << "<details><summary>Full text summary</summary><pre>" << esc(summary_text(r)) << "</pre></details>";
+  // The heat map scrolls inside its box when it is wider than the page.
+  h << "<h2>Where: held-out residuals per axis and condition</h2><div style=\"overflow-x:auto;max-width:100%\">" << heatmap_svg(r)
+    << "</div>";
   h << "<h2>Which: ranking</h2><table><tr><th>#</th><th>effect</th><th>-log10 p</th><th>p</th><th>dBIC</th><th>held-out shrink %</th><th>significant</th></tr>";
   int i = 0;
   for (const auto& c : r.ranking) {

@@ -9,6 +9,7 @@
 
 #include "host/diagnosis/diagnose.h"
 #include "host/io/log.h"
+#include "host/poses/detect.h"
 
 namespace imuforge::diagnosis {
 
@@ -38,9 +39,10 @@ class PairedSource : public SampleSource {
   long long row_ = 0;
 };
 
-// Reference-free mode (Tedaldi et al., ICRA 2014 style): static intervals are detected from the
-// accelerometer variance in 1 s windows; the accelerometer is calibrated to the gravity magnitude on the
-// pose means (bias, 3 scales, 3 non-orthogonalities; lower-triangular gauge); each static sample then
+// Reference-free mode (Tedaldi et al., ICRA 2014 style), on the shared front end of host/poses: the one
+// static-pose detector (the poses `imuforge solve --mode reference-free` finds), and the one
+// gravity-magnitude fit of the accelerometer on the pose means (bias, 3 scales, 3 non-orthogonalities;
+// lower-triangular gauge); each static sample then
 // gets the pseudo-reference f = g·unit(calibrated pose mean), ω = 0, segment = pose index. Moving samples
 // carry no reference. What this cannot see: any error along the pose direction orthogonal to |f|.
 struct ReferenceFreeInfo {
@@ -52,16 +54,21 @@ struct ReferenceFreeInfo {
 };
 class ReferenceFreeSource : public SampleSource {
  public:
-  ReferenceFreeSource(SampleSource& inner, double gravity_mps2, double window_s = 1.0, double min_pose_s = 2.0);
+  // lsb: one count of each triad in SI (0 = unknown), the detector's floor for quantised sensors;
+  // rate_hz: the log's nominal rate (0 = from the timestamps), as `imuforge solve` takes it.
+  ReferenceFreeSource(SampleSource& inner, double gravity_mps2, const poses::DetectOptions& detect = {},
+                      double accel_lsb = 0, double gyro_lsb = 0, double rate_hz = 0);
   void rewind() override;
   bool next(Sample& s) override;
   const ReferenceFreeInfo& info() const { return info_; }
+  const poses::Detection& detection() const { return detection_; }
 
  private:
   SampleSource& inner_;
   ReferenceFreeInfo info_;
-  double t0_ = 0, window_s_ = 1;
-  std::vector<int> window_pose_;            // pose index per window, −1 = moving
+  poses::Detection detection_;
+  std::size_t row_ = 0;
+  std::vector<int> sample_pose_;            // pose index per sample, −1 = not in a pose
   std::vector<std::array<double, 3>> dir_;  // pseudo-reference per pose
 };
 

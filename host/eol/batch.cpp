@@ -46,8 +46,21 @@ void solve_one(const BatchUnit& u, const StationConfig& st, const model::ModelSp
   const double cpu0 = thread_cpu_s();
   out.slot = u.slot;
   out.serial = u.serial;
+  out.log_path = u.log_path;
   try {
-    UnitSolve us = solve_unit_log(u.log_path, st, spec, camp);
+    // The unit's nest: its nominal mount and lever arm, and its own mount tolerance.
+    const StationSlot* sl = st.slot(u.slot);
+    physics::Campaign c = camp;
+    StationConfig s = st;
+    if (sl && sl->has_geometry) {
+      c.mount_rotation_deg = sl->mount_rotation_deg;
+      c.lever_arm_m = sl->lever_arm_m;
+    }
+    if (sl && sl->mount_sigma_deg[0] >= 0) {
+      if (!s.fixture_tolerance.is_object()) s.fixture_tolerance = nlohmann::json::object();
+      s.fixture_tolerance["mount_sigma_deg"] = sl->mount_sigma_deg;
+    }
+    UnitSolve us = solve_unit_log(u.log_path, s, spec, c);
     out.estimate = std::move(us.estimate);
     out.sigma_noise = std::move(us.sigma_noise);
     out.solved = true;
@@ -61,6 +74,7 @@ void solve_one(const BatchUnit& u, const StationConfig& st, const model::ModelSp
     const Verdict v = evaluate(st, params, none, extra, /*require_verification=*/false);
     out.pass = v.pass;
     out.reasons = v.reasons;
+    out.params = params;
     nlohmann::json cal;
     cal["serial"] = u.serial;
     cal["slot"] = u.slot;
@@ -177,6 +191,36 @@ void mark_outliers(BatchOutcome& b, const BatchOptions& opt) {
       if (d > opt.outlier_k * s.robust_sigma && d > 3.0 * std::sqrt(u.estimate.covariance(k, k))) u.outliers.push_back(names[i]);
     }
   }
+}
+
+std::string record_batch(records::RecordStore& store, const BatchOutcome& b, const StationConfig& st,
+                         const BatchProvenance& prov) {
+  store.ensure_schema();
+  // The provenance both record kinds share.
+  auto stamp = [&](auto& r) {
+    r.station = prov.station;
+    r.campaign = prov.campaign;
+    r.campaign_sha256 = prov.campaign_sha256;
+    r.software_version = IMUFORGE_VERSION;
+    r.started_utc = prov.started_utc;
+    r.finished_utc = prov.finished_utc;
+  };
+  records::BatchRecord br;
+  stamp(br);
+  br.units_passed = b.passed;
+  for (const auto& u : b.units) {
+    records::CalibrationRecord rec;
+    stamp(rec);
+    rec.serial = u.serial;
+    rec.fixture = u.slot;
+    rec.pass = u.pass;
+    rec.reasons = u.reasons;
+    rec.log_path = u.log_path;
+    rec.parameters = u.params;
+    const std::string id = store.insert(rec);
+    br.units.push_back({u.slot, u.serial, id, u.pass, u.reasons, u.outliers});
+  }
+  return store.insert_batch(br);
 }
 
 nlohmann::json batch_to_json(const BatchOutcome& b) {

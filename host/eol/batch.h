@@ -19,6 +19,7 @@
 #include "host/eol/station.h"
 #include "host/model/sensor_model.h"
 #include "host/physics/campaign.h"
+#include "host/records/store.h"
 #include "host/solver/estimate.h"
 
 namespace imuforge::eol {
@@ -42,12 +43,13 @@ struct BatchUnit {
 };
 
 struct UnitOutcome {
-  std::string slot, serial;
+  std::string slot, serial, log_path;
   bool solved = false;                 // an estimate exists
   bool pass = false;
   std::vector<std::string> reasons;    // why it failed (empty on pass)
   solver::Estimate estimate;           // σ with the fixture tolerance when the station states one
   Eigen::VectorXd sigma_noise;         // noise-only σ (empty when no tolerance is stated)
+  std::vector<records::ParameterRecord> params;  // value, honest σ, limits and pass per parameter
   std::vector<std::string> outliers;   // parameters far from the batch (suspicious even when passing)
   double cpu_s = 0.0;                  // CPU time of this unit's solve (its thread)
   nlohmann::json cal;                  // the unit's cal.json
@@ -88,6 +90,15 @@ void mark_outliers(BatchOutcome& b, const BatchOptions& opt = {});
 // The batch report: one self-contained HTML file, verdict first (units passed, each failure with its
 // reason, suspicious units), then every unit's row, then each parameter's spread as a strip chart.
 std::string render_batch_report(const BatchOutcome& b, const std::string& title);
+// Records the batch (docs/eol.md "Records"): one calibration record per unit (a unit without a
+// calibration too: its reasons are what the station knows of it; solved units carry their parameters
+// with limits and honest σ, no table: a solve of logs flashes nothing), then the batch record naming
+// them. Returns the batch id. Throws records::RecordError.
+struct BatchProvenance {
+  std::string station, campaign, campaign_sha256, started_utc, finished_utc;
+};
+std::string record_batch(records::RecordStore& store, const BatchOutcome& b, const StationConfig& st,
+                         const BatchProvenance& prov);
 nlohmann::json batch_to_json(const BatchOutcome& b);
 
 }  // namespace imuforge::eol

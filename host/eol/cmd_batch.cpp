@@ -11,6 +11,8 @@
 #include "host/eol/report.h"
 #include "host/eol/station.h"
 #include "host/io/campaign_file.h"
+#include "host/records/store.h"
+#include "host/solver/sha256.h"
 
 namespace {
 
@@ -19,13 +21,14 @@ int run_batch(int argc, char** argv) {
   namespace fs = std::filesystem;
   CLI::App app{"Solve a batch of units' logs in parallel: per-unit cal.json and verdict, batch.json, batch-report.html "
                "with each parameter's spread and outliers. Exit 0 when every unit passes, 1 otherwise, 2 usage."};
-  std::string station_path, campaign_path, out;
+  std::string station_path, campaign_path, out, db;
   std::vector<std::string> unit_args;
   int threads = 0;
   app.add_option("--station", station_path, "station file (limits, model, fixture_tolerance)")->required();
   app.add_option("--campaign", campaign_path, "campaign file (table geometry)")->required();
   app.add_option("--unit", unit_args, "SLOT:SERIAL:LOG, once per unit")->required();
   app.add_option("--out", out, "output folder")->required();
+  app.add_option("--db", db, "record store (SQLite path or postgresql://...): one record per unit and the batch record");
   app.add_option("--threads", threads, "solver threads (default: the cores)")->check(CLI::Range(0, 256));
   try {
     app.parse(argc, argv);
@@ -49,6 +52,7 @@ int run_batch(int argc, char** argv) {
     const physics::Campaign camp = io::load_campaign(campaign_path);
     eol::BatchOptions bo;
     bo.threads = threads;
+    const std::string started = records::utc_now_iso8601();
     const eol::BatchOutcome b = eol::solve_batch(units, st, spec, camp, bo);
     fs::create_directories(out);
     for (const auto& u : b.units)
@@ -67,7 +71,16 @@ int run_batch(int argc, char** argv) {
       std::printf("\n");
     }
     std::printf("report %s\n", report.c_str());
+    if (!db.empty()) {
+      auto store = records::open_store(db);
+      const std::string id = eol::record_batch(
+          *store, b, st, {st.name, camp.name, solver::sha256_file_hex(campaign_path), started, records::utc_now_iso8601()});
+      std::printf("batch record %s in %s (%s)\n", id.c_str(), db.c_str(), store->backend().c_str());
+    }
     return b.passed == static_cast<int>(b.units.size()) ? app::kExitOk : app::kExitFailed;
+  } catch (const records::RecordError& e) {
+    std::fprintf(stderr, "imuforge batch: records: %s\n", e.what());
+    return app::kExitPeer;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge batch: %s\n", e.what());
     return app::kExitFailed;

@@ -143,6 +143,10 @@ RunResult Runner::run() {
     throw std::invalid_argument(std::string("campaign: ") + e.what());
   }
   StationConfig st = load_station(opt_.station_path);
+  if (st.slots.size() > 1)
+    throw std::invalid_argument("station " + opt_.station_path + " lists " + std::to_string(st.slots.size()) +
+                                " slots: imuforge run drives one unit per campaign (multi-slot runs are not built yet); "
+                                "solve the units' logs together with imuforge batch (docs/eol.md \"Batches\")");
   if (st.model_path.empty()) throw std::invalid_argument("station " + opt_.station_path + ": \"model\" (solver model file) is required");
   std::string model_path = fs::path(st.model_path).is_absolute() ? st.model_path : (fs::path(st.dir) / st.model_path).string();
   model::ModelSpec spec;
@@ -246,6 +250,8 @@ RunResult Runner::run() {
   meta.sample_rate_hz = dev_.effective_rate_hz(st.stream_rate_hz);
   meta.accel_lsb_mps2 = info.accel_lsb_mps2;
   meta.gyro_lsb_rad_s = info.gyro_lsb_rad_s;
+  meta.accel_bits = info.accel_raw_bits;  // width of the streamed counts: the log's clip rule follows it
+  meta.gyro_bits = info.gyro_raw_bits;
   meta.latitude_deg = camp.latitude_deg;
   meta.height_m = camp.height_m;
   meta.gravity_mps2 = physics::normal_gravity_mps2(site);
@@ -670,9 +676,18 @@ RunResult Runner::run() {
       solve_note = "batch fixture mode (host/solver)";
     } else {
       solve_note = "srif (batch names differ: per-plateau model?)";
+      // The recursive estimate's σ know nothing of the fixture: a stated tolerance not carried is a failure.
+      if (!st.fixture_tolerance.is_null()) {
+        fixture_section = {{"stated", true}, {"error", "not propagated: the batch solve's parameters differ"}};
+        consider_error = "fixture tolerance: not propagated (the batch solve's parameters differ from the recursive estimate's)";
+      }
     }
   } catch (const solver::SolverError& e) {
     solve_note = std::string("srif (batch solve refused: ") + e.what() + ")";
+    if (!st.fixture_tolerance.is_null()) {
+      fixture_section = {{"stated", true}, {"error", std::string("not propagated: ") + e.what()}};
+      consider_error = std::string("fixture tolerance: not propagated (batch solve refused: ") + e.what() + ")";
+    }
   }
   res.estimate = est;
   Eigen::VectorXd sig = est.sigma();

@@ -1,9 +1,13 @@
 #include "host/eol/station.h"
 
-#include "host/io/input_error.h"
-
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
+
+#include "host/can/bus_budget.h"
+#include "host/io/input_error.h"
 
 namespace imuforge::eol {
 
@@ -49,6 +53,62 @@ const ParamLimit* StationConfig::limit_for(const std::string& param) const {
   return best;
 }
 
+const StationSlot* StationConfig::slot(const std::string& n) const {
+  for (const auto& s : slots)
+    if (s.name == n) return &s;
+  return nullptr;
+}
+
+namespace {
+void parse_slots(const nlohmann::json& j, StationConfig& s) {
+  if (!j.is_array() || j.empty()) throw StationError("station: slots must be a non-empty array of objects");
+  std::map<std::string, std::set<int>> nodes;
+  std::set<std::string> names;
+  for (std::size_t k = 0; k < j.size(); ++k) {
+    const auto& o = j[k];
+    const std::string w = "slots[" + std::to_string(k) + "].";
+    if (!o.is_object()) throw StationError("station: " + w + ": expected an object");
+    for (auto it = o.begin(); it != o.end(); ++it)
+      if (it.key() != "name" && it.key() != "node_id" && it.key() != "bus" && it.key() != "mount_rotation_deg" &&
+          it.key() != "lever_arm_m" && it.key() != "mount_sigma_deg" && it.key()[0] != '_')
+        throw StationError("station: " + w + it.key() + ": unknown key (expected name, node_id, bus, "
+                           "mount_rotation_deg, lever_arm_m, mount_sigma_deg)");
+    StationSlot sl;
+    char def[16];
+    std::snprintf(def, sizeof def, "slot%02zu", k + 1);
+    sl.name = get_or<std::string>(o, "name", def, w);
+    sl.node_id = get_or<int>(o, "node_id", static_cast<int>(k) + 1, w);
+    sl.bus = get_or<std::string>(o, "bus", s.can_bus, w);
+    if (sl.node_id < 1 || sl.node_id > 127) throw StationError("station: " + w + "node_id must be in 1..127");
+    if (!names.insert(sl.name).second) throw StationError("station: " + w + "name: '" + sl.name + "' is used twice");
+    if (!nodes[sl.bus].insert(sl.node_id).second)
+      throw StationError("station: " + w + "node_id: node " + std::to_string(sl.node_id) + " is used twice on " + sl.bus);
+    if (o.contains("mount_rotation_deg")) sl.mount_rotation_deg = vec3(o["mount_rotation_deg"], w + "mount_rotation_deg");
+    if (o.contains("lever_arm_m")) sl.lever_arm_m = vec3(o["lever_arm_m"], w + "lever_arm_m");
+    sl.has_geometry = o.contains("mount_rotation_deg") || o.contains("lever_arm_m");
+    if (o.contains("mount_sigma_deg")) {
+      const auto& m = o["mount_sigma_deg"];
+      if (m.is_number()) sl.mount_sigma_deg = {m.get<double>(), m.get<double>(), m.get<double>()};
+      else sl.mount_sigma_deg = vec3(m, w + "mount_sigma_deg");
+      for (double v : sl.mount_sigma_deg)
+        if (!(v >= 0)) throw StationError("station: " + w + "mount_sigma_deg must be >= 0");
+    }
+    s.slots.push_back(sl);
+  }
+  // The bus budget, before anything moves.
+  std::map<std::string, int> per_bus;
+  for (const auto& sl : s.slots) ++per_bus[sl.bus];
+  std::vector<can::BusPlan> plan;
+  for (const auto& [bus, n] : per_bus) plan.push_back({bus, n});
+  can::BusTiming t;
+  t.fd = s.can_fd;
+  t.nominal_bit_s = s.can_bitrate;
+  t.data_bit_s = s.can_data_bitrate;
+  const can::BudgetVerdict v = can::check_budget(t, plan, s.stream_rate_hz, s.bus_load_limit);
+  if (!v.ok) throw StationError("station: " + v.message);
+}
+}  // namespace
+
 StationConfig station_from_json(const nlohmann::json& j, const std::string& dir) {
   if (!j.is_object()) throw StationError("station: the file must hold a JSON object");
   StationConfig s;
@@ -61,6 +121,12 @@ StationConfig station_from_json(const nlohmann::json& j, const std::string& dir)
     s.can_node_id = get_or<int>(c, "node_id", s.can_node_id, "can.");
     s.stream_rate_hz = get_or<double>(c, "stream_rate_hz", s.stream_rate_hz, "can.");
     s.hmac_key_hex = get_or<std::string>(c, "hmac_key_hex", s.hmac_key_hex, "can.");
+    s.can_fd = get_or<bool>(c, "fd", s.can_fd, "can.");
+    s.can_bitrate = get_or<double>(c, "bitrate", s.can_bitrate, "can.");
+    s.can_data_bitrate = get_or<double>(c, "data_bitrate", s.can_data_bitrate, "can.");
+    s.bus_load_limit = get_or<double>(c, "load_limit", s.bus_load_limit, "can.");
+    if (!(s.can_bitrate > 0) || !(s.can_data_bitrate > 0)) throw StationError("station: can.bitrate and can.data_bitrate must be > 0");
+    if (!(s.bus_load_limit > 0) || s.bus_load_limit > 1) throw StationError("station: can.load_limit must be in (0, 1]");
   }
   if (j.contains("records")) s.db = get_or<std::string>(j["records"], "db", s.db, "records.");
   s.model_path = get_or<std::string>(j, "model", s.model_path, "");
@@ -83,6 +149,7 @@ StationConfig station_from_json(const nlohmann::json& j, const std::string& dir)
     s.settle_timeout_s = get_or<double>(t, "temp_timeout_s", s.settle_timeout_s, "settle.");
     s.table_timeout_s = get_or<double>(t, "table_timeout_s", s.table_timeout_s, "settle.");
   }
+  if (j.contains("slots")) parse_slots(j["slots"], s);
   if (j.contains("fixture_tolerance")) {
     if (!j["fixture_tolerance"].is_object())
       throw StationError("station: fixture_tolerance must be an object {\"axes\": .., \"mount_sigma_deg\": ..}");

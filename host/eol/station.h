@@ -32,6 +32,19 @@ struct VerificationPose {
   double dwell_s = 5.0;
 };
 
+// One nest of a multi-unit station (docs/eol.md "Station file", issue 14). Where the unit sits and how
+// well: the nest's nominal mount rotation and lever arm on the platform, and the 1σ tolerance of the
+// unit's rotation in it (overrides fixture_tolerance.mount_sigma_deg for this slot).
+struct StationSlot {
+  std::string name;                           // "slot01": unique
+  int node_id = 1;                            // unique on its bus, 1..127
+  std::string bus;                            // default: can.bus
+  std::array<double, 3> mount_rotation_deg{}; // ZYX yaw, pitch, roll of the IMU w.r.t. the platform
+  std::array<double, 3> lever_arm_m{};        // from the rotation centre, platform frame
+  std::array<double, 3> mount_sigma_deg{-1.0, -1.0, -1.0};  // < 0: the station's fixture_tolerance
+  bool has_geometry = false;                  // mount_rotation_deg or lever_arm_m given
+};
+
 struct StationConfig {
   std::string name = "station";
   std::string dir;                 // folder of the station file (relative paths resolve here)
@@ -68,6 +81,16 @@ struct StationConfig {
   // of host/solver/consider.h; null when not stated. The batch solve carries it into every σ (honest σ),
   // and the σ limits and the report use that σ.
   nlohmann::json fixture_tolerance;
+  // Multi-unit stations: the nests. Empty: one unit at can.node_id. The bus budget (host/can/bus_budget.h)
+  // of every bus at stream_rate_hz is checked when the file is read; a plan above bus_load_limit is
+  // refused with what would fit.
+  std::vector<StationSlot> slots;
+  bool can_fd = false;                   // can.fd: CAN FD stream frames
+  double can_bitrate = 1e6;              // can.bitrate, bit/s
+  double can_data_bitrate = 5e6;         // can.data_bitrate (CAN FD), bit/s
+  double bus_load_limit = 0.70;          // can.load_limit
+  // The slot of that name, or nullptr.
+  const StationSlot* slot(const std::string& name) const;
 
   // The limit that applies to a parameter: exact name first, else the longest matching prefix.
   // Returns nullptr if none.

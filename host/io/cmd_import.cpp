@@ -6,19 +6,29 @@
 #include "host/app/command.h"
 #include "host/io/staged_file.h"
 #include "host/io/import.h"
+#include "host/poses/detect.h"
+#include "host/poses/recording.h"
 
 namespace {
 
 int run_import(int argc, char** argv) {
   CLI::App app{"Convert a real recording to log v1 (no fixture reference, temperature unknown).\n"
                "  xsens-imutk: --in xsens_acc.txt --in-gyro xsens_gyro.txt\n"
-               "  mpu6050-csv: --in example_data_calibration.csv",
+               "  mpu6050-csv: --in example_data_calibration.csv\n"
+               "  si-csv:      --in rec.csv (t_s,ax,ay,az,gx,gy,gz in m/s^2, rad/s) [--accel-lsb --gyro-lsb --bits]\n"
+               "Then previews the static poses the reference-free front end finds (--explain-poses: every stretch).",
                "imuforge import"};
   imuforge::io::ImportOptions o;
   std::string out, format = "auto";
-  app.add_option("--format", o.format, "xsens-imutk | mpu6050-csv")
+  app.add_option("--format", o.format, "xsens-imutk | mpu6050-csv | si-csv")
       ->required()
-      ->check(CLI::IsMember({"xsens-imutk", "mpu6050-csv"}));
+      ->check(CLI::IsMember({"xsens-imutk", "mpu6050-csv", "si-csv"}));
+  app.add_option("--accel-lsb", o.accel_lsb_mps2, "si-csv: m/s^2 per count")->check(CLI::PositiveNumber);
+  app.add_option("--gyro-lsb", o.gyro_lsb_rad_s, "si-csv: rad/s per count")->check(CLI::PositiveNumber);
+  app.add_option("--bits", o.bits, "si-csv: raw word width declared in the log")->check(CLI::Range(2, 32));
+  bool explain = false, no_preview = false;
+  app.add_flag("--explain-poses", explain, "print the pose detector's table (start, end, duration, mean, verdict)");
+  app.add_flag("--no-preview", no_preview, "skip the static-pose preview");
   app.add_option("--in", o.in, "input file (xsens: accelerometer file)")->required();
   app.add_option("--in-gyro", o.in_gyro, "xsens: gyro file");
   app.add_option("--out", out, "output log (.csv or .bin)")->required();
@@ -43,6 +53,16 @@ int run_import(int argc, char** argv) {
     staged.commit();
     std::fprintf(stderr, "imported %llu rows, %.1f s at %.3f Hz -> %s\n", static_cast<unsigned long long>(s.rows),
                  s.duration_s, s.sample_rate_hz, out.c_str());
+    if (!no_preview) {
+      // The same front end as solve/diagnose: what a reference-free calibration would use.
+      imuforge::io::LogReader r(out);
+      const auto rec = imuforge::poses::read_recording(r);
+      const auto det = imuforge::poses::detect_poses(rec);
+      if (explain) std::printf("%s", imuforge::poses::explain_table(det).c_str());
+      std::fprintf(stderr, "preview: %zu static poses (%.1f s still); %zu gyro samples clipped at the %d-bit word%s\n",
+                   det.poses.size(), det.still_s, rec.clipped_samples, rec.gyro_bits,
+                   det.poses.size() < 10 ? " (reference-free calibration needs >= 10 poses)" : "");
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge import: %s\n", e.what());
     return imuforge::app::exit_code_for(e);

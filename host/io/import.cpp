@@ -115,6 +115,7 @@ ImportSummary import_xsens(const ImportOptions& o, const std::string& out, LogEn
   m.gyro_lsb_rad_s = 1.0 / 4770.0;
   m.set("source", "imported: xsens-imutk (IMU-TK test data, Xsens MTi)");
   m.set("lsb_note", "nominal sensitivities from the data README (unverified starting values)");
+  m.accel_bits = m.gyro_bits = 16;  // unsigned 16-bit ADC words, shifted to signed
   m.set("raw_offset", "32768");
   m.set("t0_s", std::to_string(t_first));
   m.set("input_accel", base_name(o.in));
@@ -192,6 +193,7 @@ ImportSummary import_mpu6050(const ImportOptions& o, const std::string& out, Log
   m.sample_rate_hz = fs;
   m.accel_lsb_mps2 = kG / 16384.0;
   m.gyro_lsb_rad_s = M_PI / 180.0 / 131.0;
+  m.accel_bits = m.gyro_bits = 16;  // int16 output registers
   m.set("source", "imported: mpu6050-csv (tomisuarez2/ImuCalibration, InvenSense MPU-6050)");
   m.set("lsb_note", "nominal sensitivities of the configured ranges (+-2 g, +-250 dps), not a calibration");
   m.set("time_note", "no time column in the recording: t_s synthesised as i / Fs");
@@ -226,12 +228,94 @@ ImportSummary import_mpu6050(const ImportOptions& o, const std::string& out, Log
   return sum;
 }
 
+// Floats in SI (m/s², rad/s) -> counts of a declared LSB in a declared word width. A value beyond the
+// word is refused by line, never wrapped or clipped silently (a clipped sample would look saturated).
+ImportSummary import_si_csv(const ImportOptions& o, const std::string& out, LogEncoding enc) {
+  std::ifstream f(o.in);
+  if (!f) throw LogError(o.in + ": cannot open");
+  if (!(o.accel_lsb_mps2 > 0) || !(o.gyro_lsb_rad_s > 0)) throw LogError(o.in + ": si-csv needs positive LSBs");
+  if (o.bits < 2 || o.bits > 32) throw LogError(o.in + ": si-csv word width must be 2..32 bits");
+  std::string line;
+  std::vector<std::string> cells;
+  std::size_t ln = 0;
+  const char* want[7] = {"t_s", "ax", "ay", "az", "gx", "gy", "gz"};
+  while (true) {
+    if (!std::getline(f, line)) throw LogError(o.in + ": no header line 't_s,ax,ay,az,gx,gy,gz'");
+    ++ln;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    split(line, ",", cells);
+    if (cells.size() != 7) throw LogError(o.in + ":" + std::to_string(ln) + ": header must be t_s,ax,ay,az,gx,gy,gz");
+    for (int k = 0; k < 7; ++k)
+      if (cells[static_cast<std::size_t>(k)] != want[k])
+        throw LogError(o.in + ":" + std::to_string(ln) + ": header column " + std::to_string(k + 1) + " is '" +
+                       cells[static_cast<std::size_t>(k)] + "', expected '" + want[k] + "' (units m/s^2, rad/s)");
+    break;
+  }
+  LogMeta m;
+  m.serial = o.serial.empty() ? base_name(o.in) : o.serial;
+  m.accel_lsb_mps2 = o.accel_lsb_mps2;
+  m.gyro_lsb_rad_s = o.gyro_lsb_rad_s;
+  m.accel_bits = m.gyro_bits = o.bits;
+  m.set("source", "imported: si-csv (floats in m/s^2 and rad/s mapped to counts)");
+  m.set("input", base_name(o.in));
+  std::vector<LogRow> rows;
+  std::vector<double> dts;
+  double prev = std::nan("");
+  const double lo = static_cast<double>(raw_min(o.bits)), hi = static_cast<double>(raw_max(o.bits));
+  while (std::getline(f, line)) {
+    ++ln;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    split(line, ",", cells);
+    const std::string where = o.in + ":" + std::to_string(ln);
+    if (cells.size() != 7) throw LogError(where + ": expected 7 columns, got " + std::to_string(cells.size()));
+    LogRow row;
+    row.segment = -1;
+    row.t_s = to_double(cells[0], where + ": column 1 (t_s)");
+    if (!std::isnan(prev)) {
+      if (!(row.t_s > prev)) throw LogError(where + ": t_s must increase");
+      dts.push_back(row.t_s - prev);
+    }
+    prev = row.t_s;
+    for (int k = 0; k < 6; ++k) {
+      const double v = to_double(cells[static_cast<std::size_t>(k + 1)], where + ": column " + std::to_string(k + 2));
+      const double c = std::round(v / (k < 3 ? o.accel_lsb_mps2 : o.gyro_lsb_rad_s));
+      if (!(c >= lo && c <= hi))
+        throw LogError(where + ": column " + std::to_string(k + 2) + " (" + want[k + 1] + ") = " + cells[static_cast<std::size_t>(k + 1)] +
+                       " is beyond the " + std::to_string(o.bits) + "-bit word at this LSB (choose a larger LSB or width)");
+      row.raw[k] = static_cast<std::int32_t>(c);
+    }
+    rows.push_back(row);
+  }
+  if (rows.size() < 2) throw LogError(o.in + ": need at least two samples");
+  double fs = o.sample_rate_hz;
+  if (!(fs > 0)) {
+    std::nth_element(dts.begin(), dts.begin() + static_cast<long>(dts.size() / 2), dts.end());
+    fs = std::round(1.0 / dts[dts.size() / 2] * 1000.0) / 1000.0;
+  }
+  m.sample_rate_hz = fs;
+  const double t0 = rows.front().t_s;
+  LogWriter w(out, m, enc);
+  ImportSummary sum;
+  for (LogRow& r : rows) {
+    r.t_s -= t0;
+    w.write(r);
+    ++sum.rows;
+    sum.duration_s = r.t_s;
+  }
+  w.close();
+  sum.sample_rate_hz = fs;
+  return sum;
+}
+
 }  // namespace
 
 ImportSummary import_recording(const ImportOptions& opt, const std::string& out_path, LogEncoding enc) {
   if (opt.format == "xsens-imutk") return import_xsens(opt, out_path, enc);
   if (opt.format == "mpu6050-csv") return import_mpu6050(opt, out_path, enc);
-  throw LogError("unknown import format '" + opt.format + "' (expected xsens-imutk or mpu6050-csv)");
+  if (opt.format == "si-csv") return import_si_csv(opt, out_path, enc);
+  throw LogError("unknown import format '" + opt.format + "' (expected xsens-imutk, mpu6050-csv or si-csv)");
 }
 
 }  // namespace imuforge::io

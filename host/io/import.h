@@ -7,7 +7,12 @@
 //   mpu6050-csv  tomisuarez2/ImuCalibration: metadata rows (`Fs,100`, …), header `ax,ay,az,gx,gy,gz`,
 //                int16 counts; no time column, so t_s = i / Fs. Nominal LSBs from the configured ranges:
 //                accel ±2 g = 9.80665/16384 m/s², gyro ±250 °/s = (π/180)/131 rad/s.
-// Both: temperature unknown (temp_C, chamber_C empty = NaN), has_ref = false, segment = −1 (no
+//   si-csv       floats in SI: header `t_s,ax,ay,az,gx,gy,gz` (m/s², rad/s; `#` lines skipped), mapped to
+//                counts of accel_lsb_mps2 / gyro_lsb_rad_s in a `bits`-wide word (default 1e-5 m/s², 1e-6 rad/s,
+//                32 bits: ±21 km/s² and ±2147 rad/s, resolution far below any MEMS noise). A value beyond the
+//                word is an error naming the line.
+// xsens-imutk and mpu6050-csv declare 16-bit words (accel_bits = gyro_bits = 16), si-csv its `bits`.
+// All: temperature unknown (temp_C, chamber_C empty = NaN), has_ref = false, segment = −1 (no
 // fixture schedule: reference-free consumers detect static intervals themselves), table_axes = 0.
 #pragma once
 
@@ -23,7 +28,9 @@ struct ImportOptions {
   std::string in;          // accel file (xsens) or the CSV (mpu6050)
   std::string in_gyro;     // xsens only
   std::string serial;      // written to metadata ("" -> derived from the file name)
-  double sample_rate_hz = 0;  // 0 = from the file (xsens: median Δt; mpu6050: its Fs row)
+  double sample_rate_hz = 0;  // 0 = from the file (xsens, si-csv: median Δt; mpu6050: its Fs row)
+  double accel_lsb_mps2 = 1e-5, gyro_lsb_rad_s = 1e-6;  // si-csv only
+  int bits = 32;                                         // si-csv only
 };
 
 struct ImportSummary {

@@ -22,7 +22,7 @@ const char* const kRequired[16] = {"t_s",     "segment", "temp_C",  "chamber_C",
                                    "az",      "gx",      "gy",      "gz"};
 
 const char* const kReserved[] = {"format",   "format_version", "serial",      "sample_rate_hz", "accel_lsb_mps2",
-                                 "gyro_lsb_rad_s", "latitude_deg", "height_m", "gravity_mps2", "table_axes"};
+                                 "gyro_lsb_rad_s", "latitude_deg", "height_m", "gravity_mps2", "table_axes", "accel_bits", "gyro_bits"};
 
 bool reserved(const std::string& k) {
   for (const char* r : kReserved)
@@ -104,6 +104,11 @@ void apply_meta(LogMeta& m, const std::string& key, const std::string& val, cons
     need_num(v);
     if (v != std::floor(v) || v < 0 || v > 3) throw LogError(where + ": table_axes must be 0..3");
     m.table_axes = static_cast<int>(v);
+  } else if (key == "accel_bits" || key == "gyro_bits") {
+    double v;
+    need_num(v);
+    if (v != std::floor(v) || v < 2 || v > 32) throw LogError(where + ": " + key + " must be an integer 2..32, got '" + val + "'");
+    (key == "accel_bits" ? m.accel_bits : m.gyro_bits) = static_cast<int>(v);
   } else {
     if (!valid_key(key)) throw LogError(where + ": invalid metadata key " + quote_for_message(key));
     m.extra.emplace_back(key, val);
@@ -123,12 +128,16 @@ std::string meta_text(const LogMeta& m, const char* prefix) {
   line("height_m", fmt_double(m.height_m));
   line("gravity_mps2", fmt_double(m.gravity_mps2));
   line("table_axes", std::to_string(m.table_axes));
+  line("accel_bits", std::to_string(m.accel_bits));
+  line("gyro_bits", std::to_string(m.gyro_bits));
   for (const auto& [k, v] : m.extra) line(k, v);
   return s;
 }
 
 void check_meta(const LogMeta& m, const std::string& path) {
   if (m.table_axes < 0 || m.table_axes > 3) throw LogError(path + ": table_axes must be 0..3");
+  if (m.accel_bits < 2 || m.accel_bits > 32 || m.gyro_bits < 2 || m.gyro_bits > 32)
+    throw LogError(path + ": accel_bits/gyro_bits must be 2..32");
   if (m.serial.find('\n') != std::string::npos) throw LogError(path + ": serial contains a newline");
   for (const auto& [k, v] : m.extra) {
     if (!valid_key(k) || reserved(k)) throw LogError(path + ": invalid or reserved metadata key '" + k + "'");
@@ -324,6 +333,19 @@ bool LogReader::next(LogRow& row) {
   if (!f_) throw LogError(path_ + ": log not open");
   if (!(enc_ == LogEncoding::kBinary ? next_bin(row) : next_csv(row))) return false;
   check_row(row);
+  // A count outside the declared word width is a corrupt row or wrong metadata: either way the clip
+  // rule (a count at the width's limit) would misjudge it, so it is refused here, by line.
+  for (int c = 0; c < 6; ++c) {
+    const int bits = c < 3 ? meta_.accel_bits : meta_.gyro_bits;
+    if (raw_fits(row.raw[c], bits)) continue;
+    static const char* kCol[6] = {"ax", "ay", "az", "gx", "gy", "gz"};
+    const std::string where = enc_ == LogEncoding::kBinary ? path_ + ": record " + std::to_string(rows_ - 1)
+                                                           : path_ + ":" + std::to_string(line_);
+    throw LogError(where + ": " + kCol[c] + " count " + std::to_string(row.raw[c]) + " exceeds the declared " +
+                   std::to_string(bits) + "-bit raw word (" + (c < 3 ? "accel_bits" : "gyro_bits") + "=" +
+                   std::to_string(bits) + ", range " + std::to_string(raw_min(bits)) + ".." +
+                   std::to_string(raw_max(bits)) + ")");
+  }
   return true;
 }
 

@@ -54,6 +54,11 @@ struct LogMeta {
   // Number of rate-table axes whose REPORTED angles/rates are logged (0..3). CSV carries the optional
   // columns tbl_angle_<i>, tbl_rate_<i> only for i < table_axes; binary always reserves 3.
   int table_axes = 0;
+  // Width of the raw signed word per triad, in bits (2..32). Optional keys, 16 when absent (logs
+  // written before they existed). Counts must lie in [−2^(bits−1), 2^(bits−1) − 1] (a row outside is
+  // an error naming its line); a count AT either limit is a clipped (saturated) sample.
+  int accel_bits = 16;
+  int gyro_bits = 16;
   // Free key/values in file order (e.g. "source", "campaign", "raw_offset_ax"). Keys: [A-Za-z0-9_.-]+,
   // values: any text without newline. The reserved keys above are never stored here.
   std::vector<std::pair<std::string, std::string>> extra;
@@ -80,6 +85,13 @@ struct LogRow {
   double table_rate_rad_s[3] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
                                 std::numeric_limits<double>::quiet_NaN()};
 };
+
+// Signed range of a `bits`-wide raw word (bits 2..32).
+constexpr std::int64_t raw_min(int bits) { return -(std::int64_t{1} << (bits - 1)); }
+constexpr std::int64_t raw_max(int bits) { return (std::int64_t{1} << (bits - 1)) - 1; }
+constexpr bool raw_fits(std::int64_t count, int bits) { return count >= raw_min(bits) && count <= raw_max(bits); }
+// A count at either limit of the word: the sensor saturated there.
+constexpr bool raw_clipped(std::int64_t count, int bits) { return count <= raw_min(bits) || count >= raw_max(bits); }
 
 enum class LogEncoding { kAuto, kCsv, kBinary };
 

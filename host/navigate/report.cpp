@@ -175,8 +175,12 @@ std::string nav_html(const NavReport& r) {
     h << " The best calibration, <b>" << html_escape(best->name) << "</b>, takes the error from "
       << fmt_num(unc->hpos[last].median, "%.3g") << " m (uncompensated) to " << fmt_num(best->hpos[last].median, "%.3g")
       << " m; the oracle (true values of every term the table holds) reaches " << fmt_num(orc->hpos[last].median, "%.3g")
-      << " m, so " << fmt_num(std::max(0.0, best->hpos[last].median - orc->hpos[last].median), "%.3g")
-      << " m is left to better calibration and the rest is noise and terms the table cannot carry.";
+      << " m"
+      << (best->hpos[last].median >= orc->hpos[last].median
+              ? ", so " + fmt_num(best->hpos[last].median - orc->hpos[last].median, "%.3g") +
+                    " m is left to better calibration and the rest is noise and terms the table cannot carry."
+              : ". The calibration beats the oracle: the oracle is the truth of the table's terms, not the best "
+                "table, and the estimates absorb part of effects the table cannot carry.");
   h << "</div>";
 
   h << "<h2>Errors at " ;

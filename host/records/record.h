@@ -51,6 +51,29 @@ struct CalibrationRecord {
   bool early_stop = false;
 };
 
+// One unit of a batch (units calibrated together, docs/eol.md "Batches"): its verdict in the batch and
+// the id of its own calibration record ("" if it has none).
+struct BatchUnitRecord {
+  std::string slot;
+  std::string serial;
+  std::string calibration_id;
+  bool pass = false;
+  std::vector<std::string> reasons;   // why it failed
+  std::vector<std::string> outliers;  // parameters far from the batch
+};
+
+struct BatchRecord {
+  std::string id;              // as CalibrationRecord::id
+  std::string station;
+  std::string campaign;
+  std::string campaign_sha256;
+  std::string software_version;
+  std::string started_utc;
+  std::string finished_utc;
+  int units_passed = 0;
+  std::vector<BatchUnitRecord> units;
+};
+
 // A fresh record id: 128 random bits from the OS, hex. Never reused across stations.
 std::string new_record_id();
 

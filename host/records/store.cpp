@@ -59,6 +59,27 @@ const std::vector<std::string>& schema_sql() {
       " limit_abs DOUBLE PRECISION NOT NULL,"
       " pass INTEGER NOT NULL,"
       " PRIMARY KEY (calibration_id, ord))",
+      // Batches (added without a version bump: new tables only, older databases gain them here).
+      "CREATE TABLE IF NOT EXISTS calibration_batch ("
+      " id VARCHAR(32) PRIMARY KEY,"
+      " station TEXT NOT NULL,"
+      " campaign TEXT NOT NULL,"
+      " campaign_sha256 VARCHAR(64) NOT NULL,"
+      " software_version TEXT NOT NULL,"
+      " started_utc VARCHAR(20) NOT NULL,"
+      " finished_utc VARCHAR(20) NOT NULL,"
+      " units_total INTEGER NOT NULL,"
+      " units_passed INTEGER NOT NULL)",
+      "CREATE TABLE IF NOT EXISTS calibration_batch_unit ("
+      " batch_id VARCHAR(32) NOT NULL REFERENCES calibration_batch (id),"
+      " ord INTEGER NOT NULL,"
+      " slot TEXT NOT NULL,"
+      " serial TEXT NOT NULL,"
+      " calibration_id VARCHAR(32) NOT NULL,"
+      " pass INTEGER NOT NULL,"
+      " reasons TEXT NOT NULL,"
+      " outliers TEXT NOT NULL,"
+      " PRIMARY KEY (batch_id, ord))",
   };
   return ddl;
 }
@@ -194,6 +215,64 @@ class SqlStore final : public RecordStore {
                                    {Value::of(serial)}))
       out.push_back({x[0].as_text(), x[1].as_text(), x[2].as_text(), x[3].as_text(), x[4].as_int() != 0});
     return out;
+  }
+
+  std::string insert_batch(BatchRecord& b) override {
+    if (b.id.empty()) b.id = new_record_id();
+    db_->exec("BEGIN");
+    try {
+      db_->exec(
+          "INSERT INTO calibration_batch (id, station, campaign, campaign_sha256, software_version, started_utc,"
+          " finished_utc, units_total, units_passed) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
+          {Value::of(b.id), Value::of(b.station), Value::of(b.campaign), Value::of(b.campaign_sha256),
+           Value::of(b.software_version), Value::of(b.started_utc), Value::of(b.finished_utc),
+           Value::of(static_cast<std::int64_t>(b.units.size())), Value::of(static_cast<std::int64_t>(b.units_passed))});
+      for (std::size_t k = 0; k < b.units.size(); ++k) {
+        const auto& u = b.units[k];
+        db_->exec(
+            "INSERT INTO calibration_batch_unit (batch_id, ord, slot, serial, calibration_id, pass, reasons, outliers)"
+            " VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+            {Value::of(b.id), Value::of(static_cast<std::int64_t>(k)), Value::of(u.slot), Value::of(u.serial),
+             Value::of(u.calibration_id), Value::of(std::int64_t{u.pass ? 1 : 0}),
+             Value::of(nlohmann::json(u.reasons).dump()), Value::of(nlohmann::json(u.outliers).dump())});
+      }
+      db_->exec("COMMIT");
+    } catch (...) {
+      rollback();
+      throw;
+    }
+    return b.id;
+  }
+
+  BatchRecord get_batch(const std::string& id) override {
+    auto rows = db_->exec(
+        "SELECT id, station, campaign, campaign_sha256, software_version, started_utc, finished_utc, units_passed"
+        " FROM calibration_batch WHERE id = $1",
+        {Value::of(id)});
+    if (rows.empty()) throw RecordError(backend() + ": no batch record with id " + id);
+    BatchRecord b;
+    const Row& x = rows[0];
+    b.id = x[0].as_text();
+    b.station = x[1].as_text();
+    b.campaign = x[2].as_text();
+    b.campaign_sha256 = x[3].as_text();
+    b.software_version = x[4].as_text();
+    b.started_utc = x[5].as_text();
+    b.finished_utc = x[6].as_text();
+    b.units_passed = static_cast<int>(x[7].as_int());
+    for (const auto& u : db_->exec("SELECT slot, serial, calibration_id, pass, reasons, outliers FROM calibration_batch_unit"
+                                   " WHERE batch_id = $1 ORDER BY ord",
+                                   {Value::of(id)})) {
+      BatchUnitRecord r{u[0].as_text(), u[1].as_text(), u[2].as_text(), u[3].as_int() != 0, {}, {}};
+      try {
+        r.reasons = nlohmann::json::parse(u[4].as_text()).get<std::vector<std::string>>();
+        r.outliers = nlohmann::json::parse(u[5].as_text()).get<std::vector<std::string>>();
+      } catch (const std::exception& e) {
+        throw RecordError(backend() + ": batch " + id + " has a malformed unit row: " + e.what());
+      }
+      b.units.push_back(std::move(r));
+    }
+    return b;
   }
 
   std::string backend() const override { return db_->backend(); }

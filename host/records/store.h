@@ -40,6 +40,11 @@ class RecordStore {
   virtual CalibrationRecord get(const std::string& id) = 0;
   // Every record of one device serial, oldest first.
   virtual std::vector<RecordSummary> find_by_serial(const std::string& serial) = 0;
+  // A batch and its units in one transaction (the units' calibration records are inserted before, with
+  // insert()). Fills b.id if empty. Returns the id.
+  virtual std::string insert_batch(BatchRecord& b) = 0;
+  // Reads a batch back; throws RecordError if absent.
+  virtual BatchRecord get_batch(const std::string& id) = 0;
   virtual std::string backend() const = 0;  // "sqlite" or "postgresql"
 };
 

@@ -83,6 +83,8 @@ io::LogMeta make_log_meta(const Campaign& c, const model::SensorModel& m, const 
   meta.sample_rate_hz = opt.sample_rate_hz > 0 ? opt.sample_rate_hz : c.sample_rate_hz;
   meta.accel_lsb_mps2 = m.triad(Sensor::kAccel).lsb;
   meta.gyro_lsb_rad_s = m.triad(Sensor::kGyro).lsb;
+  meta.accel_bits = m.triad(Sensor::kAccel).bits;  // the output stage clamps to this word (to_counts)
+  meta.gyro_bits = m.triad(Sensor::kGyro).bits;
   meta.latitude_deg = c.latitude_deg;
   meta.height_m = c.height_m;
   meta.gravity_mps2 = normal_gravity_mps2(Site{c.latitude_deg, c.height_m});

@@ -84,6 +84,8 @@ io::LogMeta vehicle_log_meta(const TrajectoryFile& tf, const model::SensorModel&
   meta.sample_rate_hz = tf.sample_rate_hz;
   meta.accel_lsb_mps2 = m.triad(Sensor::kAccel).lsb;
   meta.gyro_lsb_rad_s = m.triad(Sensor::kGyro).lsb;
+  meta.accel_bits = m.triad(Sensor::kAccel).bits;  // the word the output stage clamps to
+  meta.gyro_bits = m.triad(Sensor::kGyro).bits;
   meta.latitude_deg = tf.trajectory.start().latitude_deg;
   meta.height_m = tf.trajectory.start().height_m;
   meta.gravity_mps2 = physics::normal_gravity_mps2(physics::Site{meta.latitude_deg, meta.height_m});

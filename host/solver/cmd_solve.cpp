@@ -19,7 +19,9 @@
 #include "host/solver/fixture.h"
 #include "host/solver/fixture_errors.h"
 #include "host/solver/online.h"
+#include "host/poses/detect.h"
 #include "host/solver/reference_free.h"
+#include "host/solver/repeatability.h"
 #include "host/solver/sha256.h"
 #include "host/solver/table_out.h"
 #include "host/solver/traditional.h"
@@ -33,7 +35,9 @@ struct Args {
   std::string log, model, mode = "fixture", method = "inverse", out, table, serial, noise = "static";
   std::string stop_sigma, campaign, rotation_check;
   bool online = false;
-  double static_window_s = 1.0, static_min_s = 1.5;
+  poses::DetectOptions detect;
+  bool explain_poses = false;
+  std::vector<std::string> logs;
 };
 
 Sigma6 noise_from_model(const model::ModelSpec& spec) {
@@ -141,7 +145,9 @@ void write_json(const std::string& path, const nlohmann::json& j) {
 int run_solve(int argc, char** argv) {
   CLI::App app{"Calibrate: estimate the model's parameters with covariance from a log (docs/calibration.md)"};
   Args a;
-  app.add_option("--log", a.log, "log v1 (CSV or binary)")->required();
+  app.add_option("--log", a.logs, "log v1 (CSV or binary); reference-free: repeat for several recordings of one unit "
+                                  "(calibrated each and together, spread vs sigma, cross-application)")
+      ->required();
   app.add_option("--model", a.model, "model file (docs/examples/model-basic.json, model-thermal.json)")->required();
   app.add_option("--mode", a.mode, "reference mode")->check(CLI::IsMember({"fixture", "fixture+errors", "reference-free"}));
   app.add_option("--method", a.method, "inverse (weighted least squares) or traditional (six-position, CW/CCW)")
@@ -156,13 +162,24 @@ int run_solve(int argc, char** argv) {
   app.add_option("--campaign", a.campaign, "campaign file: table geometry for fixture+errors and for the model's fixture_tolerance");
   app.add_option("--rotation-check", a.rotation_check,
                  "reference-free: a log with one known rotation; prints the integrated angle before/after");
-  app.add_option("--static-window", a.static_window_s, "reference-free: variance window for static detection, s")
+  app.add_option("--static-window", a.detect.window_s, "reference-free: window of the static detector, s")
       ->check(CLI::PositiveNumber);
-  app.add_option("--static-min", a.static_min_s, "reference-free: shortest static pose, s")->check(CLI::PositiveNumber);
+  app.add_option("--static-min", a.detect.min_dwell_s, "reference-free: minimum dwell of a pose, s")->check(CLI::PositiveNumber);
+  app.add_option("--static-settle", a.detect.settle_s, "reference-free: margin dropped after motion, s")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--static-k", a.detect.k_accel, "reference-free: still accelerometer below k x its per-axis noise floor")
+      ->check(CLI::PositiveNumber);
+  app.add_flag("--explain-poses", a.explain_poses,
+               "reference-free: print every stretch of the recording (start, end, duration, mean, verdict/reason)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? app::kExitOk : app::kExitUsage;
+  }
+  a.log = a.logs.front();
+  if (a.logs.size() > 1 && a.mode != "reference-free") {
+    std::fprintf(stderr, "imuforge solve: several --log are compared in reference-free mode only\n");
+    return app::kExitUsage;
   }
   if (!a.table.empty() && a.serial.empty()) {
     std::fprintf(stderr, "imuforge solve: --table needs --serial\n");
@@ -203,18 +220,40 @@ int run_solve(int argc, char** argv) {
     if (a.method == "traditional") throw SolverError("the traditional method needs a fixture (six positions, CW/CCW)");
     RawRecording rec = read_recording(log);
     ReferenceFreeOptions rfo;
-    rfo.window_s = a.static_window_s;
-    rfo.min_duration_s = a.static_min_s;
-    ReferenceFreeResult r = solve_reference_free(rec, spec, rfo);
+    rfo.detect = a.detect;
+    if (a.explain_poses) std::printf("%s: %s", a.log.c_str(), poses::explain_table(poses::detect_poses(rec, a.detect)).c_str());
+    std::vector<RawRecording> more;  // the other recordings of --log
+    for (std::size_t k = 1; k < a.logs.size(); ++k) {
+      io::LogReader lk(a.logs[k]);
+      more.push_back(read_recording(lk));
+      if (a.explain_poses)
+        std::printf("%s: %s", a.logs[k].c_str(), poses::explain_table(poses::detect_poses(more.back(), a.detect)).c_str());
+    }
+    std::vector<const RawRecording*> all = {&rec};
+    for (const auto& m : more) all.push_back(&m);
+    ReferenceFreeResult r;
+    if (all.size() > 1) {
+      Repeatability rep = repeatability(all, a.logs, spec, rfo);
+      std::printf("%s", rep.report(a.logs).c_str());
+      for (const auto& w : rep.warnings) std::fprintf(stderr, "imuforge solve: warning: %s\n", w.c_str());
+      res.extra["repeatability"] = rep.to_json(a.logs);
+      std::vector<std::string> hashes;
+      for (const auto& l : a.logs) hashes.push_back(sha256_file_hex(l));
+      res.extra["logs_sha256"] = hashes;
+      r = std::move(rep.joint);
+      std::printf("joint calibration (all %zu recordings): ", all.size());
+    } else {
+      r = solve_reference_free(rec, spec, rfo);
+    }
     res.estimate = r.estimate;
     res.observability = r.observability;
     res.residual_rms = r.residual_rms;
     res.noise_sigma = r.residual_rms;
     res.noise_source = "within-pose scatter";
-    res.samples = static_cast<long long>(rec.y.size());
+    res.samples = 0;
+    for (const RawRecording* x : all) res.samples += static_cast<long long>(x->y.size());
     res.observability.unobservable.clear();
     res.extra["reference_free"] = {{"static_poses", r.intervals.size()},
-                                   {"threshold_k", r.threshold_k},
                                    {"gravity_mps2", r.gravity_mps2},
                                    {"gravity_source", rec.gravity_source},
                                    {"gravity_rms_before_mps2", r.gravity_rms_before},
@@ -223,14 +262,16 @@ int run_solve(int argc, char** argv) {
                                    {"gravity_direction_rms_after", r.rotation_rms_after},
                                    {"transitions_used", r.transitions_used},
                                    {"transitions_clipped", r.transitions_clipped},
+                                   {"gyro_bits", rec.gyro_bits},
+                                   {"accel_bits", rec.accel_bits},
                                    {"gauge_fixed_zero", r.gauge_fixed}};
-    std::printf("reference-free: %zu static poses (k=%.0f), gravity %.5f m/s² (%s)\n", r.intervals.size(),
-                r.threshold_k, r.gravity_mps2, rec.gravity_source.c_str());
+    std::printf("reference-free: %zu static poses, gravity %.5f m/s² (%s)\n", r.intervals.size(), r.gravity_mps2,
+                rec.gravity_source.c_str());
     std::printf("  gravity-magnitude residual RMS: before %.4e m/s², after %.4e m/s²\n", r.gravity_rms_before,
                 r.gravity_rms_after);
     std::printf("  gravity-direction residual RMS across rotations: before %.4e, after %.4e (%d transitions; %d left "
-                "out: gyro clipped at full scale)\n", r.rotation_rms_before, r.rotation_rms_after, r.transitions_used,
-                r.transitions_clipped);
+                "out: gyro clipped at the %d-bit full scale)\n", r.rotation_rms_before, r.rotation_rms_after, r.transitions_used,
+                r.transitions_clipped, rec.gyro_bits);
     if (!a.rotation_check.empty()) {
       io::LogReader l2(a.rotation_check);
       RawRecording r2 = read_recording(l2);

@@ -8,7 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "host/model/catalog.h"
-#include "host/physics/earth.h"
+#include "host/poses/gravity_fit.h"
 
 namespace imuforge::solver {
 
@@ -55,19 +55,16 @@ class ResidualProblem : public NonlinearProblem {
 
 const char* kAx = "xyz";
 // Accelerometer unknowns in a fixed order; the misalignments are the gauge-free lower triangle.
-const char* kAccNames[9] = {"accel.bias.x",  "accel.bias.y",  "accel.bias.z",     "accel.scale.x",    "accel.scale.y",
-                            "accel.scale.z", "accel.misalign.yx", "accel.misalign.zx", "accel.misalign.zy"};
+const char* const* kAccNames = poses::kGravityFitNames;
 const char* kGyroNames[9] = {"gyro.scale.x",    "gyro.scale.y",    "gyro.scale.z",    "gyro.misalign.xy", "gyro.misalign.xz",
                              "gyro.misalign.yx", "gyro.misalign.yz", "gyro.misalign.zx", "gyro.misalign.zy"};
 
 TriadCal accel_cal(const Eigen::VectorXd& p) {
+  poses::GravityFit f;
+  f.p = p;
   TriadCal c;
-  c.b = p.head<3>();
-  c.IM = Eigen::Matrix3d::Identity();
-  for (int j = 0; j < 3; ++j) c.IM(j, j) += p[3 + j];
-  c.IM(1, 0) = p[6];
-  c.IM(2, 0) = p[7];
-  c.IM(2, 1) = p[8];
+  c.b = f.bias();
+  c.IM = f.im();
   return c;
 }
 
@@ -122,150 +119,7 @@ Eigen::Matrix3d integrate_with(const RawRecording& rec, const Eigen::Matrix3d& i
 
 double rms(const Eigen::VectorXd& v) { return v.size() ? std::sqrt(v.squaredNorm() / static_cast<double>(v.size())) : 0.0; }
 
-struct AccelFit {
-  Eigen::VectorXd p;
-  Eigen::MatrixXd info;  // JᵀJ / σ²
-  double rms_after = 0.0;
-  int dof = 0;
-};
-
-AccelFit fit_accel(const std::vector<StaticInterval>& iv, double g, const std::vector<bool>& active) {
-  const int na = static_cast<int>(std::count(active.begin(), active.end(), true));
-  auto full = [&](const Eigen::VectorXd& x) {
-    Eigen::VectorXd p = Eigen::VectorXd::Zero(9);
-    for (int k = 0, a = 0; k < 9; ++k)
-      if (active[static_cast<size_t>(k)]) p[k] = x[a++];
-    return p;
-  };
-  auto f = [&](const Eigen::VectorXd& x) {
-    const TriadCal c = accel_cal(full(x));
-    const Eigen::Matrix3d inv = c.IM.inverse();
-    Eigen::VectorXd e(static_cast<long>(iv.size()));
-    for (size_t i = 0; i < iv.size(); ++i) e[static_cast<long>(i)] = (inv * (iv[i].acc - c.b)).norm() - g;
-    return e;
-  };
-  Eigen::VectorXd step(na);
-  for (int k = 0, a = 0; k < 9; ++k)
-    if (active[static_cast<size_t>(k)]) step[a++] = k < 3 ? 1e-6 : 1e-7;
-  ResidualProblem prob(na, f, step);
-  LmOptions lo;
-  lo.step_tolerance_sq = 1e-10;  // numeric Jacobian: stop at 1e-5 σ steps
-  LmResult r = levenberg_marquardt(prob, Eigen::VectorXd::Zero(na), lo);
-  AccelFit out;
-  out.p = full(r.theta);
-  const Eigen::VectorXd e = prob.residual(r.theta);
-  out.dof = static_cast<int>(e.size()) - na;
-  const double s2 = out.dof > 0 ? e.squaredNorm() / out.dof : std::numeric_limits<double>::infinity();
-  out.info = r.normal.info / s2;
-  out.rms_after = rms(e);
-  return out;
-}
-
 }  // namespace
-
-RawRecording read_recording(io::LogReader& log) {
-  RawRecording rec;
-  const auto& m = log.meta();
-  if (!(m.accel_lsb_mps2 > 0) || !(m.gyro_lsb_rad_s > 0))
-    throw SolverError("log '" + log.path() + "' lacks positive accel_lsb/gyro_lsb metadata");
-  if (std::isfinite(m.gravity_mps2) && m.gravity_mps2 > 0) {
-    rec.gravity_mps2 = m.gravity_mps2;
-    rec.gravity_source = "log metadata";
-  } else if (std::isfinite(m.latitude_deg)) {
-    physics::Site s;
-    s.latitude_deg = m.latitude_deg;
-    s.height_m = std::isfinite(m.height_m) ? m.height_m : 0.0;
-    rec.gravity_mps2 = physics::normal_gravity_mps2(s);
-    rec.gravity_source = "normal gravity at the log's latitude/height";
-  } else {
-    rec.gravity_mps2 = 9.80665;
-    rec.gravity_source = "standard gravity (the log has no gravity or site)";
-  }
-  io::LogRow row;
-  while (log.next(row)) {
-    rec.t_s.push_back(row.t_s);
-    std::array<double, 6> y;
-    for (int c = 0; c < 6; ++c) y[static_cast<size_t>(c)] = row.raw[c] * (c < 3 ? m.accel_lsb_mps2 : m.gyro_lsb_rad_s);
-    rec.y.push_back(y);
-    bool clip = false;
-    for (int c = 3; c < 6; ++c) clip = clip || row.raw[c] <= -32768 || row.raw[c] >= 32767;
-    rec.gyro_clipped.push_back(clip);
-    rec.clipped_samples += clip ? 1 : 0;
-  }
-  if (rec.t_s.size() < 10) throw SolverError("log '" + log.path() + "' has too few samples for reference-free mode");
-  for (size_t i = 1; i < rec.t_s.size(); ++i)
-    if (!(rec.t_s[i] > rec.t_s[i - 1]))
-      throw SolverError("log '" + log.path() + "': time does not increase at row " + std::to_string(i));
-  rec.rate_hz = m.sample_rate_hz > 0 ? m.sample_rate_hz
-                                     : static_cast<double>(rec.t_s.size() - 1) / (rec.t_s.back() - rec.t_s.front());
-  return rec;
-}
-
-std::vector<StaticInterval> detect_static(const RawRecording& rec, double window_s, double min_duration_s,
-                                          double k_threshold, StaticSignal signal) {
-  const std::size_t n = rec.y.size();
-  const std::size_t half = std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(window_s * rec.rate_hz / 2)));
-  // Prefix sums of centred values (centring on the channel mean keeps Σy² − (Σy)²/n well conditioned).
-  std::array<double, 6> mean{};
-  for (const auto& y : rec.y)
-    for (int c = 0; c < 6; ++c) mean[static_cast<size_t>(c)] += y[static_cast<size_t>(c)] / static_cast<double>(n);
-  std::vector<std::array<double, 12>> ps(n + 1);
-  ps[0].fill(0.0);
-  for (std::size_t i = 0; i < n; ++i)
-    for (int c = 0; c < 6; ++c) {
-      const double v = rec.y[i][static_cast<size_t>(c)] - mean[static_cast<size_t>(c)];
-      ps[i + 1][static_cast<size_t>(c)] = ps[i][static_cast<size_t>(c)] + v;
-      ps[i + 1][static_cast<size_t>(6 + c)] = ps[i][static_cast<size_t>(6 + c)] + v * v;
-    }
-  std::vector<double> va(n), vg(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t a = i >= half ? i - half : 0, b = std::min(n, i + half + 1);
-    const double m = static_cast<double>(b - a);
-    double sa = 0, sg = 0;
-    for (int c = 0; c < 6; ++c) {
-      const double s1 = ps[b][static_cast<size_t>(c)] - ps[a][static_cast<size_t>(c)];
-      const double s2 = ps[b][static_cast<size_t>(6 + c)] - ps[a][static_cast<size_t>(6 + c)];
-      const double var = std::max(0.0, (s2 - s1 * s1 / m) / std::max(1.0, m - 1));
-      (c < 3 ? sa : sg) += var;
-    }
-    va[i] = sa;
-    vg[i] = sg;
-  }
-  auto floor_of = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 10), v.end());
-    return std::max(v[v.size() / 10], 1e-300);
-  };
-  // Accelerometer only, as in Tedaldi et al.: a hand holding a pose still trembles enough to lift the
-  // gyro's windowed variance well above its floor while the accelerometer's stays near it.
-  const bool gyro = signal == StaticSignal::kGyro;
-  const std::vector<double>& v = gyro ? vg : va;
-  const double fa = floor_of(v);
-  std::vector<StaticInterval> out;
-  const std::size_t min_len = static_cast<std::size_t>(std::ceil(min_duration_s * rec.rate_hz));
-  std::size_t i = 0;
-  while (i < n) {
-    if (!(v[i] < k_threshold * fa)) {
-      ++i;
-      continue;
-    }
-    std::size_t j = i;
-    while (j < n && v[j] < k_threshold * fa) ++j;
-    if (j - i >= std::max<std::size_t>(min_len, 2)) {
-      StaticInterval s;
-      s.begin = i;
-      s.end = j;
-      for (std::size_t k = i; k < j; ++k) {
-        s.acc += Eigen::Vector3d(rec.y[k][0], rec.y[k][1], rec.y[k][2]);
-        s.gyro += Eigen::Vector3d(rec.y[k][3], rec.y[k][4], rec.y[k][5]);
-      }
-      s.acc /= static_cast<double>(j - i);
-      s.gyro /= static_cast<double>(j - i);
-      out.push_back(s);
-    }
-    i = j;
-  }
-  return out;
-}
 
 Eigen::Matrix3d integrate_rotation(const RawRecording& rec, const TriadCal& gyro, std::size_t i0, std::size_t i1) {
   return integrate_with(rec, gyro.IM.inverse(), gyro.b, i0, i1);
@@ -296,8 +150,8 @@ bool clipped_in(const RawRecording& rec, std::size_t i0, std::size_t i1) {
 }
 }  // namespace
 
-RotationCheck rotation_check(const RawRecording& rec, const Estimate& cal, double window_s) {
-  RotationCheck rc = rotation_check(rec, triad_from_estimate(cal, "gyro"), window_s);
+RotationCheck rotation_check(const RawRecording& rec, const Estimate& cal, const poses::DetectOptions& det) {
+  RotationCheck rc = rotation_check(rec, triad_from_estimate(cal, "gyro"), det);
   // dθ/dp for every gyro scale/misalignment in the estimate, by central differences (the angle is
   // smooth in them), then σ² = J C Jᵀ over that block of the covariance.
   std::vector<int> idx;
@@ -312,8 +166,8 @@ RotationCheck rotation_check(const RawRecording& rec, const Estimate& cal, doubl
     Estimate p = cal, m = cal;
     p.value[idx[a]] += h;
     m.value[idx[a]] -= h;
-    jac[static_cast<long>(a)] = (rotation_check(rec, triad_from_estimate(p, "gyro"), window_s).angle_deg -
-                                 rotation_check(rec, triad_from_estimate(m, "gyro"), window_s).angle_deg) / (2 * h);
+    jac[static_cast<long>(a)] = (rotation_check(rec, triad_from_estimate(p, "gyro"), det).angle_deg -
+                                 rotation_check(rec, triad_from_estimate(m, "gyro"), det).angle_deg) / (2 * h);
   }
   Eigen::MatrixXd c(jac.size(), jac.size());
   for (long a = 0; a < jac.size(); ++a)
@@ -322,13 +176,13 @@ RotationCheck rotation_check(const RawRecording& rec, const Estimate& cal, doubl
   return rc;
 }
 
-RotationCheck rotation_check(const RawRecording& rec, const TriadCal& gyro, double window_s) {
-  // The gyro shows a rotation even where the accelerometer barely changes (rotation about the vertical).
-  const auto iv = detect_static(rec, window_s, 2.0, 4.0, StaticSignal::kGyro);
+RotationCheck rotation_check(const RawRecording& rec, const TriadCal& gyro, const poses::DetectOptions& det) {
+  const auto iv = poses::detect_poses(rec, det).poses;
   if (iv.empty()) throw SolverError("rotation check: no static interval to take the gyro bias from");
   if (rec.clipped_samples > 0)
     throw SolverError("rotation check: " + std::to_string(rec.clipped_samples) +
-                      " gyro samples at a 16-bit full-scale limit; the integrated angle would be short");
+                      " gyro samples at a full-scale limit of the " + std::to_string(rec.gyro_bits) +
+                      "-bit raw word; the integrated angle would be short");
   TriadCal g = gyro;
   // Turn-on bias differs at every power-up: take it from this recording's first still period, in output
   // units, so the calibration's scale/misalignment apply to rate only.
@@ -346,6 +200,12 @@ RotationCheck rotation_check(const RawRecording& rec, const TriadCal& gyro, doub
 
 ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::ModelSpec& spec,
                                          const ReferenceFreeOptions& opt) {
+  return solve_reference_free(std::vector<const RawRecording*>{&rec}, spec, opt);
+}
+
+ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>& recs, const model::ModelSpec& spec,
+                                         const ReferenceFreeOptions& opt) {
+  if (recs.empty()) throw SolverError("reference-free mode: no recording");
   using model::Effect;
   using model::Sensor;
   // Which of the supported unknowns the model asks for; anything else is refused by name.
@@ -371,31 +231,35 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
     acc_active[static_cast<size_t>(k)] = want(kAccNames[k]);
     gyro_active[static_cast<size_t>(k)] = want(kGyroNames[k]);
   }
-  const double g = rec.gravity_mps2;
+  const double g = recs.front()->gravity_mps2;
   res.gravity_mps2 = g;
+  for (const RawRecording* r : recs)
+    if (std::abs(r->gravity_mps2 - g) > 1e-6 * g)
+      throw SolverError("reference-free mode: the recordings state different gravity (" + std::to_string(g) + " vs " +
+                        std::to_string(r->gravity_mps2) + " m/s²); one unit calibrated together needs one site");
 
-  // 1-2: static detection swept over thresholds; keep the lowest gravity residual (Tedaldi §IV).
-  AccelFit best;
-  best.rms_after = std::numeric_limits<double>::infinity();
+  // 1-2: the shared front end: static poses, then the gravity-magnitude accelerometer fit.
   const int na = static_cast<int>(std::count(acc_active.begin(), acc_active.end(), true));
-  for (double k : opt.thresholds) {
-    auto iv = detect_static(rec, opt.window_s, opt.min_duration_s, k);
-    if (static_cast<int>(iv.size()) < std::max(opt.min_intervals, na + 1)) continue;
-    AccelFit fit = fit_accel(iv, g, acc_active);
-    if (fit.rms_after < best.rms_after) {
-      best = fit;
-      res.intervals = iv;
-      res.threshold_k = k;
+  // Poses of every recording, in order; owner[i] = the recording pose i comes from.
+  std::vector<std::size_t> owner;
+  for (std::size_t r = 0; r < recs.size(); ++r) {
+    poses::Detection d = poses::detect_poses(*recs[r], opt.detect);
+    for (const auto& p : d.poses) {
+      res.intervals.push_back(p);
+      owner.push_back(r);
     }
+    if (r == 0) res.detection = std::move(d);
   }
-  if (res.intervals.empty())
-    throw SolverError("reference-free mode: fewer than " + std::to_string(std::max(opt.min_intervals, na + 1)) +
-                      " static poses found at every threshold; the recording needs more still poses of >= " +
-                      std::to_string(opt.min_duration_s) + " s");
+  const int need = std::max(opt.min_intervals, na + 1);
+  if (static_cast<int>(res.intervals.size()) < need)
+    throw SolverError("reference-free mode: " + std::to_string(res.intervals.size()) + " static poses found, " +
+                      std::to_string(need) + " needed; the recording needs more still poses of >= " +
+                      std::to_string(opt.detect.min_dwell_s) + " s (--explain-poses shows what was rejected and why)");
+  std::array<bool, 9> act9{};
+  for (int k = 0; k < 9; ++k) act9[static_cast<size_t>(k)] = acc_active[static_cast<size_t>(k)];
+  const poses::GravityFit best = poses::fit_gravity(res.intervals, g, act9);
   const auto& iv = res.intervals;
-  Eigen::VectorXd before(static_cast<long>(iv.size()));
-  for (size_t i = 0; i < iv.size(); ++i) before[static_cast<long>(i)] = iv[i].acc.norm() - g;
-  res.gravity_rms_before = rms(before);
+  res.gravity_rms_before = best.rms_before;
   res.gravity_rms_after = best.rms_after;
   const TriadCal acal = accel_cal(best.p);
   const Eigen::Matrix3d ainv = acal.IM.inverse();
@@ -404,17 +268,28 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
   Eigen::Vector3d bg = Eigen::Vector3d::Zero();
   double nsum = 0;
   for (const auto& s : iv) {
-    const double w = static_cast<double>(s.end - s.begin);
+    const double w = static_cast<double>(s.samples);
     bg += w * s.gyro;
     nsum += w;
   }
   bg /= nsum;
+  // Turn-on bias differs at every power-up: each recording's transitions are integrated about its own.
+  std::vector<Eigen::Vector3d> bg_rec(recs.size(), Eigen::Vector3d::Zero());
+  {
+    std::vector<double> wr(recs.size(), 0.0);
+    for (std::size_t i = 0; i < iv.size(); ++i) {
+      bg_rec[owner[i]] += static_cast<double>(iv[i].samples) * iv[i].gyro;
+      wr[owner[i]] += static_cast<double>(iv[i].samples);
+    }
+    for (std::size_t r = 0; r < recs.size(); ++r) bg_rec[r] = wr[r] > 0 ? Eigen::Vector3d(bg_rec[r] / wr[r]) : bg;
+  }
   Eigen::Vector3d bvar = Eigen::Vector3d::Zero();
   for (const auto& s : iv) bvar += (s.gyro - bg).cwiseAbs2();
   bvar /= static_cast<double>(iv.size() - 1) * static_cast<double>(iv.size());
 
   // 4: gyro scale/misalignment from the gravity direction across transitions.
   const int ng = static_cast<int>(std::count(gyro_active.begin(), gyro_active.end(), true));
+  const Eigen::VectorXd pa = best.p;
   auto gfull = [&](const Eigen::VectorXd& x) {
     Eigen::VectorXd p = Eigen::VectorXd::Zero(9);
     for (int k = 0, a = 0; k < 9; ++k)
@@ -422,10 +297,14 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
     return p;
   };
   std::vector<size_t> used;  // transitions i -> i+1 without a clipped gyro sample
-  for (size_t i = 0; i + 1 < iv.size(); ++i)
-    if (!clipped_in(rec, iv[i].end - 1, iv[i + 1].begin)) used.push_back(i);
+  int transitions = 0;
+  for (size_t i = 0; i + 1 < iv.size(); ++i) {
+    if (owner[i] != owner[i + 1]) continue;  // no transition between two recordings
+    ++transitions;
+    if (!clipped_in(*recs[owner[i]], iv[i].end - 1, iv[i + 1].begin)) used.push_back(i);
+  }
   res.transitions_used = static_cast<int>(used.size());
-  res.transitions_clipped = static_cast<int>(iv.size() - 1 - used.size());
+  res.transitions_clipped = transitions - static_cast<int>(used.size());
   // The residual as a function of the gyro unknowns AND the upstream estimates it is conditioned on
   // (accelerometer parameters through the gravity directions, gyro bias through the integration).
   auto gres_at = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& pa9, const Eigen::Vector3d& bias) {
@@ -438,12 +317,13 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
     Eigen::VectorXd e(3 * static_cast<long>(used.size()));
     for (size_t u = 0; u < used.size(); ++u) {
       const size_t i = used[u];
-      const Eigen::Matrix3d r = integrate_with(rec, inv, c.b, iv[i].end - 1, iv[i + 1].begin);
+      const Eigen::Vector3d b_rec = bg_rec[owner[i]] + (c.b - bg);
+      const Eigen::Matrix3d r = integrate_with(*recs[owner[i]], inv, b_rec, iv[i].end - 1, iv[i + 1].begin);
       e.segment<3>(3 * static_cast<long>(u)) = r.transpose() * gdir[i] - gdir[i + 1];
     }
     return e;
   };
-  auto gres = [&](const Eigen::VectorXd& x) { return gres_at(x, best.p, bg); };
+  auto gres = [&](const Eigen::VectorXd& x) { return gres_at(x, pa, bg); };
   Eigen::VectorXd gtheta = Eigen::VectorXd::Zero(ng);
   Eigen::MatrixXd ginfo = Eigen::MatrixXd::Zero(ng, ng);
   // Sensitivity of the gyro estimate to the upstream estimates u = (active accel parameters, gyro bias):
@@ -470,7 +350,7 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
     for (int k = 0, a = 0; k < 9; ++k) {
       if (!acc_active[static_cast<size_t>(k)]) continue;
       const double h = k < 3 ? 1e-6 : 1e-7;
-      Eigen::VectorXd pp = best.p, pm = best.p;
+      Eigen::VectorXd pp = pa, pm = pa;
       pp[k] += h;
       pm[k] -= h;
       ju.col(a++) = (gres_at(gtheta, pp, bg) - gres_at(gtheta, pm, bg)) / (2 * h);
@@ -480,7 +360,7 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
       Eigen::Vector3d bp = bg, bm = bg;
       bp[j] += h;
       bm[j] -= h;
-      ju.col(na + j) = (gres_at(gtheta, best.p, bp) - gres_at(gtheta, best.p, bm)) / (2 * h);
+      ju.col(na + j) = (gres_at(gtheta, pa, bp) - gres_at(gtheta, pa, bm)) / (2 * h);
     }
     dgu = -(jg.transpose() * jg).ldlt().solve(jg.transpose() * ju);
   } else {
@@ -550,9 +430,12 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
   const Eigen::Matrix3d ginv = gcal.IM.inverse();
   std::array<double, 6> ss{};
   double cnt = 0;
-  for (const auto& s : iv) {
+  for (std::size_t pi = 0; pi < iv.size(); ++pi) {
+    const auto& s = iv[pi];
+    const RawRecording& rec = *recs[owner[pi]];
     Eigen::Vector3d ma = ainv * (s.acc - acal.b), mg = ginv * (s.gyro - gcal.b);
-    for (std::size_t k = s.begin; k < s.end; ++k) {
+    for (const auto& [pb, pe] : s.parts)
+    for (std::size_t k = pb; k < pe; ++k) {
       const auto& y = rec.y[k];
       const Eigen::Vector3d a = ainv * (Eigen::Vector3d(y[0], y[1], y[2]) - acal.b) - ma;
       const Eigen::Vector3d w = ginv * (Eigen::Vector3d(y[3], y[4], y[5]) - gcal.b) - mg;
@@ -561,7 +444,7 @@ ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::M
         ss[static_cast<size_t>(3 + c)] += w[c] * w[c];
       }
     }
-    cnt += static_cast<double>(s.end - s.begin - 1);
+    cnt += static_cast<double>(s.samples - 1);
   }
   for (int c = 0; c < 6; ++c) res.residual_rms[static_cast<size_t>(c)] = std::sqrt(ss[static_cast<size_t>(c)] / std::max(1.0, cnt));
   return res;

@@ -1,11 +1,9 @@
 // Reference-free mode (Tedaldi, Pretto, Menegatti, "A robust and easy to implement method for IMU
 // calibration without external equipments", ICRA 2014): static poses of unknown orientation.
 //
-// 1. Static intervals: sliding-window variance (window_s) of the accelerometer (summed over axes), below
-//    k × the recording's noise floor (10th percentile of the windowed variance), for at least
-//    min_duration_s. k is swept over `thresholds` and the one with the lowest gravity-magnitude residual
-//    (with at least min_intervals poses) is kept, as in the paper.
-// 2. Accelerometer: minimise Σ_i (|f̂_i| − g)², f̂_i = (I+M_a)⁻¹ (ȳ_i − b_a), over the pose means ȳ_i.
+// 1. Static poses: the one detector of host/poses/detect.h (noise-adaptive per axis, minimum dwell,
+//    settle margins, split on attitude change, merge of bumped poses); --explain-poses prints its table.
+// 2. Accelerometer (host/poses/gravity_fit.h, shared with the diagnosis): minimise Σ_i (|f̂_i| − g)², f̂_i = (I+M_a)⁻¹ (ȳ_i − b_a), over the pose means ȳ_i.
 //    |f| is blind to a rotation of the frame, so 3 of the 6 misalignments are fixed by a gauge: the body
 //    frame is the accelerometer's (x sensing axis = body x, y sensing axis in the body xy plane), i.e.
 //    accel.misalign.xy = xz = yz = 0 (a lower-triangular I+M_a, Tedaldi's convention).
@@ -30,48 +28,28 @@
 
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
+#include "host/poses/detect.h"
+#include "host/poses/recording.h"
 #include "host/solver/estimate.h"
 
 namespace imuforge::solver {
 
-// All samples of a recording in SI (nominal LSB). Reference-free needs the motion between poses, so
-// unlike the fixture modes it keeps the samples (56 bytes each; a hand-held recording is minutes long).
-struct RawRecording {
-  std::vector<double> t_s;
-  std::vector<std::array<double, 6>> y;  // ax ay az (m/s²) gx gy gz (rad/s)
-  double gravity_mps2 = 9.80665;
-  std::string gravity_source;            // "log metadata" | "normal gravity (latitude/height)" | "standard"
-  double rate_hz = 0.0;
-  // Per sample: a gyro count sits at a signed 16-bit limit (−32768 or 32767). Every 16-bit IMU register
-  // and the unsigned-with-offset formats clip there, and a clipped rate loses rotation: transitions
-  // containing such a sample are left out of the gyro fit. Empty = nothing clipped.
-  std::vector<bool> gyro_clipped;
-  std::size_t clipped_samples = 0;
-};
-RawRecording read_recording(io::LogReader& log);
-
-struct StaticInterval {
-  std::size_t begin = 0, end = 0;  // sample indices [begin, end)
-  Eigen::Vector3d acc = Eigen::Vector3d::Zero(), gyro = Eigen::Vector3d::Zero();  // means, SI
-};
+// All samples of a recording in SI, with the clip flags judged against the log's declared raw widths.
+using RawRecording = poses::Recording;
+using poses::read_recording;
+using StaticInterval = poses::Pose;
 
 struct ReferenceFreeOptions {
-  double window_s = 1.0;
-  double min_duration_s = 1.5;
-  int min_intervals = 9;                        // the accelerometer has 9 unknowns
-  std::vector<double> thresholds = {2, 3, 4, 6, 8, 12, 16};
+  poses::DetectOptions detect;
+  int min_intervals = 9;  // the accelerometer has 9 unknowns
 };
-
-enum class StaticSignal { kAccel, kGyro };
-std::vector<StaticInterval> detect_static(const RawRecording& rec, double window_s, double min_duration_s,
-                                          double k_threshold, StaticSignal signal = StaticSignal::kAccel);
 
 struct ReferenceFreeResult {
   Estimate estimate;                // the model's parameters (those not fixed by the gauge)
   std::vector<std::string> gauge_fixed;
   Observability observability;      // of the stacked blocks
-  std::vector<StaticInterval> intervals;
-  double threshold_k = 0.0;
+  std::vector<StaticInterval> intervals;  // = detection.poses
+  poses::Detection detection;
   double gravity_mps2 = 0.0;
   double gravity_rms_before = 0.0;  // RMS over poses of |ȳ_i| − g with the nominal LSB
   double gravity_rms_after = 0.0;   // same with the calibration
@@ -83,6 +61,12 @@ struct ReferenceFreeResult {
 };
 
 ReferenceFreeResult solve_reference_free(const RawRecording& rec, const model::ModelSpec& spec,
+                                         const ReferenceFreeOptions& opt = {});
+// Several recordings of one unit calibrated together: the poses of all feed one gravity fit; each
+// recording's transitions are integrated about its own turn-on gyro bias (the estimate states the pooled
+// bias, its σ from the scatter of every pose); no transition spans two recordings. detection = the
+// first recording's.
+ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>& recs, const model::ModelSpec& spec,
                                          const ReferenceFreeOptions& opt = {});
 
 // Applies a (reference-free) calibration to a triad sample: (I+M)⁻¹ (y − b).
@@ -104,8 +88,8 @@ struct RotationCheck {
   // differences); NaN when no covariance was given. The bias is re-estimated, so its σ does not enter.
   double angle_sigma_deg = std::numeric_limits<double>::quiet_NaN();
 };
-RotationCheck rotation_check(const RawRecording& rec, const TriadCal& gyro, double window_s = 1.0);
-RotationCheck rotation_check(const RawRecording& rec, const Estimate& cal, double window_s = 1.0);
+RotationCheck rotation_check(const RawRecording& rec, const TriadCal& gyro, const poses::DetectOptions& det = {});
+RotationCheck rotation_check(const RawRecording& rec, const Estimate& cal, const poses::DetectOptions& det = {});
 
 // Integrates ω over samples [i0, i1) with RK4 on the unit quaternion; returns R such that v_start = R v_end.
 Eigen::Matrix3d integrate_rotation(const RawRecording& rec, const TriadCal& gyro, std::size_t i0, std::size_t i1);

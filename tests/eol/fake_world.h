@@ -200,6 +200,8 @@ class FakeDevice : public Device {
     d.firmware_version = "fake-fw 1";
     d.accel_lsb_mps2 = w_.sensor.out[0].lsb;
     d.gyro_lsb_rad_s = w_.sensor.out[1].lsb;
+    d.accel_raw_bits = w_.sensor.out[0].bits;
+    d.gyro_raw_bits = w_.sensor.out[1].bits;
     d.table_present = !w_.flashed.empty();
     return d;
   }

@@ -103,6 +103,38 @@ void round_trip(RecordStore& store) {
   dup.id = r3.id;
   EXPECT_THROW(store.insert(dup), RecordError);
   EXPECT_TRUE(store.find_by_serial("SN-3").empty());
+  // A batch: its units' records (one without: a dead unit), then the batch in one transaction.
+  BatchRecord b;
+  b.station = "station-07";
+  b.campaign = "eol";
+  b.campaign_sha256 = std::string(64, 'a');
+  b.software_version = "test";
+  b.started_utc = "2026-11-22T10:00:00Z";
+  b.finished_utc = "2026-11-22T13:00:00Z";
+  b.units_passed = 2;
+  b.units = {{"slot01", "SN-1", r1.id, true, {}, {}},
+             {"slot02", "SN-2", r3.id, true, {}, {"accel.scale.x"}},
+             {"slot03", "SN-9", "", false, {"no calibration: node 3 never answered"}, {}}};
+  const std::string bid = store.insert_batch(b);
+  ASSERT_EQ(bid.size(), 32u);
+  const BatchRecord g = store.get_batch(bid);
+  EXPECT_EQ(g.station, b.station);
+  EXPECT_EQ(g.finished_utc, b.finished_utc);
+  EXPECT_EQ(g.units_passed, 2);
+  ASSERT_EQ(g.units.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(g.units[k].slot, b.units[k].slot);
+    EXPECT_EQ(g.units[k].serial, b.units[k].serial);
+    EXPECT_EQ(g.units[k].calibration_id, b.units[k].calibration_id);
+    EXPECT_EQ(g.units[k].pass, b.units[k].pass);
+    EXPECT_EQ(g.units[k].reasons, b.units[k].reasons);
+    EXPECT_EQ(g.units[k].outliers, b.units[k].outliers);
+  }
+  EXPECT_THROW(store.get_batch("0123"), RecordError);
+  BatchRecord again = b;  // same id: refused, nothing half-written
+  again.units.push_back({"slot04", "SN-10", "", false, {}, {}});
+  EXPECT_THROW(store.insert_batch(again), RecordError);
+  EXPECT_EQ(store.get_batch(bid).units.size(), 3u);
 }
 
 }  // namespace

@@ -25,6 +25,7 @@ LogMeta meta() {
   m.height_m = 520;
   m.gravity_mps2 = 9.8087;
   m.table_axes = 2;
+  m.accel_bits = m.gyro_bits = 32;  // the rows span the whole int32 range (INT32_MIN included)
   m.set("campaign", "unit test");
   return m;
 }

@@ -56,9 +56,9 @@ void expect_calibrated(const ReferenceFreeResult& r) {
 }
 
 void print(const char* what, const RawRecording& rec, const ReferenceFreeResult& r) {
-  std::printf("%s: %zu samples, %zu static poses (k=%.0f); gravity-magnitude RMS %.4g -> %.4g m/s^2; "
+  std::printf("%s: %zu samples, %zu static poses; gravity-magnitude RMS %.4g -> %.4g m/s^2; "
               "gravity-direction RMS %.4g -> %.4g (%d transitions, %d left out: gyro clipped)\n",
-              what, rec.y.size(), r.intervals.size(), r.threshold_k, r.gravity_rms_before, r.gravity_rms_after,
+              what, rec.y.size(), r.intervals.size(), r.gravity_rms_before, r.gravity_rms_after,
               r.rotation_rms_before, r.rotation_rms_after, r.transitions_used, r.transitions_clipped);
   const Eigen::VectorXd s = r.estimate.sigma();
   for (size_t i = 0; i < r.estimate.names.size(); ++i)
@@ -107,7 +107,7 @@ TEST(RealData, Mpu6050CalibratesAndPassesTheNinetyDegreeCheck) {
   const RotationCheck rc = rotation_check(rot, r.estimate);
   // Independent view of the same hand rotation: the tilt of gravity between the first and last still
   // periods (the rotation axis is nearly horizontal), nominal and calibrated accelerometer.
-  const auto still = detect_static(rot, 1.0, 2.0, 4.0);
+  const auto still = poses::detect_poses(rot).poses;
   ASSERT_GE(still.size(), 2u);
   const TriadCal acc = triad_from_estimate(r.estimate, "accel");
   auto tilt = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {

@@ -64,6 +64,7 @@ inline LogMeta meta(const Config& c) {
   m.sample_rate_hz = c.rate_hz;
   m.accel_lsb_mps2 = c.sigma[0] / 20;
   m.gyro_lsb_rad_s = c.sigma[3] / 20;
+  m.accel_bits = m.gyro_bits = 32;  // counts are never clamped here: the widest word
   m.gravity_mps2 = 9.80665;
   return m;
 }

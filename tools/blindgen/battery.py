@@ -286,6 +286,10 @@ def summarise(rows):
         xs = [r for r in by.get(cat, []) if 'error' not in r]
         if xs:
             S['%s.max_false' % cat] = max(r['false'] for r in xs)
+    ts = [r['diag_s'] for r in rows if isinstance(r.get('diag_s'), float)]
+    if ts:
+        S['diag_wall_s.mean'] = sum(ts) / len(ts)  # wall time of one `imuforge diagnose` (shared machine: a guide)
+        S['diag_wall_s.max'] = max(ts)
     S['errors'] = sum(1 for r in rows if 'error' in r)
     return S
 
