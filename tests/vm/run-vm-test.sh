@@ -76,7 +76,7 @@ if [ \$ok = 1 ]; then
   echo "VMTEST modules PASS can can-dev can-raw vcan can-isotp"
   candump -L -r 16777216 vcan0 > /tmp/candump.log 2>/tmp/candump.err &
   cpid=\$!
-  imuforge-vimu --bus socketcan:vcan0 --node 1 --serial 777 --max-catch-up 60000 > /tmp/vimu.log 2>&1 &
+  imuforge-vimu --bus socketcan:vcan0 --node 1 --serial 777 > /tmp/vimu.log 2>&1 &
   vpid=\$!
   sleep 1
   can_vm_driver run --bus socketcan:vcan0 --node 1 --serial 777 --slow-s $slow_s --stream-s $stream_s --bench-s $bench_s --counts-out /tmp/host_counts || ok=0
