@@ -7,16 +7,24 @@
 //
 // Exit codes, shared by every subcommand:
 //   0  success (and, for commands that judge, PASS)
-//   1  the work ran but failed: bad input data, a rejected table, a FAIL verdict (message on stderr)
-//   2  usage error (bad options)
+//   1  the work ran but failed: a singular problem, a rejected table, a FAIL verdict (message on stderr)
+//   2  bad input: bad options, or a file the user handed is malformed (one line on stderr naming the
+//      file, line or key; nothing written: docs/formats.md "What a bad file gets")
 //   3  an external peer failed: Modbus fixture, CAN bus, database
 #pragma once
+
+#include <exception>
+
+#include "host/io/input_error.h"
 
 namespace imuforge::app {
 
 using CommandFn = int (*)(int argc, char** argv);
 
-enum ExitCode : int { kExitOk = 0, kExitFailed = 1, kExitUsage = 2, kExitPeer = 3 };
+enum ExitCode : int { kExitOk = 0, kExitFailed = 1, kExitUsage = 2, kExitBadInput = 2, kExitPeer = 3 };
+
+// The exit code of a command that stopped on an exception: 2 for bad input (io::is_input_error), else 1.
+inline int exit_code_for(const std::exception& e) { return io::is_input_error(e) ? kExitBadInput : kExitFailed; }
 
 struct CommandRegistrar {
   CommandRegistrar(const char* name, const char* summary, CommandFn fn) noexcept;

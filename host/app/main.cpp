@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
       return e->fn(static_cast<int>(args.size()), args.data());
     } catch (const std::exception& ex) {
       std::fprintf(stderr, "imuforge %s: error: %s\n", e->name, ex.what());
-      return imuforge::app::kExitFailed;
+      return imuforge::app::exit_code_for(ex);
     }
   }
   std::fprintf(stderr, "imuforge: unknown command '%s'\n\n", argv[1]);

@@ -77,7 +77,7 @@ int run_bench_sim(int argc, char** argv) {
     wc = benchsim::world_config(campaign, world_json, sensor, seed);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge bench-sim: %s\n", e.what());
-    return app::kExitFailed;
+    return app::exit_code_for(e);
   }
   std::unique_ptr<benchsim::Bench> bench;
   try {
@@ -87,7 +87,7 @@ int run_bench_sim(int argc, char** argv) {
     bench = std::make_unique<benchsim::Bench>(benchsim::make_sim_world(wc), std::move(bank), time_scale);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge bench-sim: %s\n", e.what());
-    return app::kExitFailed;
+    return app::exit_code_for(e);
   }
 
   std::signal(SIGPIPE, SIG_IGN);  // a client that vanishes mid-answer must not kill the lab

@@ -344,7 +344,19 @@ void Client::start_stream(std::uint16_t rate_hz, std::uint8_t channels, StreamDe
 
 std::uint32_t Client::stop_stream(int drain_ms) {
   const auto r = request({proto::kCmdStreamStop});
-  std::this_thread::sleep_for(std::chrono::milliseconds(drain_ms));
+  // Drain until the stream has been quiet for drain_ms (at most 20 × drain_ms): on a loaded host the
+  // frames the node sent before it stopped can still be queued in the socket well after its answer.
+  const auto t_end = Clock::now() + std::chrono::milliseconds(20 * drain_ms);
+  auto quiet_since = Clock::now();
+  std::uint64_t frames = t_->counters().frames;
+  while (Clock::now() < t_end && Clock::now() - quiet_since < std::chrono::milliseconds(drain_ms)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    const std::uint64_t f = t_->counters().frames;
+    if (f != frames) {
+      frames = f;
+      quiet_since = Clock::now();
+    }
+  }
   t_->flush_decoder();
   t_->set_decoder(nullptr);
   return le32(r, 0);

@@ -174,14 +174,14 @@ int run_can(int argc, char** argv) {
       const int rc = fw::table_parse(t.data(), t.size(), &parsed);
       if (rc != 0) {
         std::cerr << "imuforge can flash: " << table_path << " is not a valid table v1: " << fw::table_strerror(rc) << "\n";
-        return app::kExitFailed;
+        return app::kExitBadInput;
       }
       if (seq == 0) seq = parsed.table_sequence;
       const auto id = c->identify();
       if (parsed.device_serial != id.serial) {
         std::cerr << "imuforge can flash: table is for serial " << parsed.device_serial << ", node " << node
                   << " has serial " << id.serial << "\n";
-        return app::kExitFailed;
+        return app::kExitBadInput;
       }
       const can::Key key = dev_key ? vimu::dev_key_for_serial(id.serial) : can::key_from_hex(key_hex);
       const auto t0 = std::chrono::steady_clock::now();

@@ -53,24 +53,13 @@ int run_diagnose(int argc, char** argv) {
     if (model_path == "basic") {
       base = diagnosis::basic_model();
     } else {
-      std::ifstream f(model_path);
-      if (!f) {
-        std::fprintf(stderr, "imuforge diagnose: cannot open model '%s'\n", model_path.c_str());
-        return app::kExitFailed;
-      }
-      nlohmann::json j;
-      try {
-        j = nlohmann::json::parse(f);
-      } catch (const std::exception& e) {
-        std::fprintf(stderr, "imuforge diagnose: %s: not valid JSON: %s\n", model_path.c_str(), e.what());
-        return app::kExitFailed;
-      }
+      nlohmann::json j = io::read_json_file(model_path);
       if (j.is_object() && j.contains("model") && j["model"].is_object()) j = j["model"];  // a cal.json
       try {
         base = diagnosis::base_model_from_spec(model::model_spec_from_json(j));
       } catch (const std::exception& e) {
         std::fprintf(stderr, "imuforge diagnose: %s: %s\n", model_path.c_str(), e.what());
-        return app::kExitFailed;
+        return app::exit_code_for(e);
       }
     }
     if (!sensor_path.empty()) {
@@ -175,7 +164,7 @@ int run_diagnose(int argc, char** argv) {
     return app::kExitOk;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge diagnose: %s\n", e.what());
-    return app::kExitFailed;
+    return app::exit_code_for(e);
   }
 }
 

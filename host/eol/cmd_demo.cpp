@@ -49,7 +49,7 @@ int run_demo_cmd(int argc, char** argv) {
     return app::kExitPeer;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge demo: %s\n", e.what());
-    return app::kExitFailed;
+    return app::exit_code_for(e);
   }
 }
 

@@ -51,11 +51,22 @@ int run_run(int argc, char** argv) {
     std::string station_path = o.station_path;
     if (o.resume && station_path.empty()) {
       auto jc = eol::read_journal(o.out_dir + "/journal.log");
-      if (!jc.entries.empty()) station_path = jc.entries[0].value("station_path", "");
+      const std::string jp = o.out_dir + "/journal.log";
+      if (jc.entries.empty() || !jc.entries[0].is_object() || jc.entries[0].value("type", "") != "run_start" ||
+          !jc.entries[0].contains("station_path") || !jc.entries[0]["station_path"].is_string()) {
+        throw eol::JournalCorruptError("journal " + jp + " line 1: no run_start entry with a station_path: nothing to resume");
+      }
+      station_path = jc.entries[0]["station_path"].get<std::string>();
     }
     eol::StationConfig st = eol::load_station(station_path);
-    auto bench = eol::make_fixture_bench(st);
-    auto dev = eol::make_can_device(st);
+    std::unique_ptr<eol::Bench> bench;
+    std::unique_ptr<eol::Device> dev;
+    try {
+      bench = eol::make_fixture_bench(st);
+      dev = eol::make_can_device(st);
+    } catch (const eol::StationError& e) {  // what the adapters find missing is still the station file's
+      throw eol::StationError(station_path + ": " + e.what());
+    }
     auto ops = eol::make_table_ops();
     eol::Runner runner(o, *bench, *dev, *ops);
     eol::RunResult r = runner.run();
@@ -78,7 +89,7 @@ int run_run(int argc, char** argv) {
   } catch (const std::exception& e) {
     // Station/campaign/model problems, a damaged journal: bad input.
     std::fprintf(stderr, "imuforge run: %s\n", e.what());
-    return app::kExitFailed;
+    return app::exit_code_for(e);
   }
 }
 

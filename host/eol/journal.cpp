@@ -57,6 +57,14 @@ std::string journal_line(const nlohmann::json& entry) {
 JournalContents read_journal(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   if (!f) throw JournalError("journal " + path + ": cannot open: " + errno_text());
+  // A run's journal is a few hundred bytes per segment; a file far beyond that is not one (and is not
+  // read into memory).
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(path, ec);
+  if (!ec && bytes > io::kMaxJsonFileBytes) {
+    throw JournalCorruptError("journal " + path + ": " + std::to_string(bytes) + " bytes, larger than " +
+                              std::to_string(io::kMaxJsonFileBytes >> 20) + " MiB: not a run journal");
+  }
   std::stringstream ss;
   ss << f.rdbuf();
   const std::string data = ss.str();
@@ -77,7 +85,7 @@ JournalContents read_journal(const std::string& path) {
         c.torn_tail = true;
         break;
       }
-      throw JournalError("journal " + path + " line " + std::to_string(lineno) + " is corrupt (" + why +
+      throw JournalCorruptError("journal " + path + " line " + std::to_string(lineno) + " is corrupt (" + why +
                          ") and is not the last line: refusing to resume from a damaged journal");
     }
     c.entries.push_back(std::move(e));

@@ -12,11 +12,18 @@
 #include <string>
 #include <vector>
 
+#include "host/io/input_error.h"
+
 namespace imuforge::eol {
 
 class JournalError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+// A journal damaged before its last line (bad input to --resume: exit code 2, not an I/O failure).
+class JournalCorruptError : public JournalError, public io::BadInput {
+ public:
+  using JournalError::JournalError;
 };
 
 struct JournalContents {

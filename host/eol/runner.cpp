@@ -849,7 +849,22 @@ RunResult Runner::run() {
     try {
       auto store = records::open_store(db);
       store->ensure_schema();
-      store->insert(rec);
+      // The id is chosen and journaled before the insert: a crash between the insert and its "recorded"
+      // entry leaves the id in the journal, and the resumed run finds that record instead of adding a
+      // second one (found by tests/eol/test_crash.cpp).
+      bool present = false;
+      if (finish.contains("recording")) {
+        rec.id = finish["recording"].value("id", "");
+        try {
+          (void)store->get(rec.id);
+          present = true;
+        } catch (const records::RecordError&) {
+        }
+      } else {
+        rec.id = records::new_record_id();
+        journal->append({{"type", "recording"}, {"id", rec.id}});
+      }
+      if (!present) store->insert(rec);
       journal->append({{"type", "recorded"}, {"id", rec.id}, {"backend", store->backend()}});
     } catch (const std::exception& e) {
       record_error = e.what();

@@ -7,6 +7,7 @@
 #include <set>
 
 #include "host/can/bus_budget.h"
+#include "host/io/input_error.h"
 
 namespace imuforge::eol {
 
@@ -198,13 +199,11 @@ StationConfig station_from_json(const nlohmann::json& j, const std::string& dir)
 }
 
 StationConfig load_station(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw StationError("station: cannot open " + path);
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(f);
-  } catch (const std::exception& e) {
-    throw StationError("station " + path + ": malformed JSON: " + e.what());
+    j = io::read_json_file(path);
+  } catch (const io::InputError& e) {
+    throw StationError(e.what());  // every station problem is a StationError (and an input error)
   }
   auto dir = std::filesystem::absolute(path).parent_path().string();
   try {

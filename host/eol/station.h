@@ -8,11 +8,14 @@
 #include <string>
 #include <vector>
 
+#include "host/io/input_error.h"
+
 namespace imuforge::eol {
 
-class StationError : public std::runtime_error {
+// A station file that cannot be used (bad input: exit code 2).
+class StationError : public io::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using io::InputError::InputError;
 };
 
 // Limits on one parameter, or on every parameter matched by a pattern ("accel.bias.*").

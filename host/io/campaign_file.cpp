@@ -1,5 +1,7 @@
 #include "host/io/campaign_file.h"
 
+#include "host/io/input_error.h"
+
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
@@ -244,10 +246,9 @@ Campaign campaign_from_json(const json& j) {
 }
 
 Campaign load_campaign(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(path + ": cannot open campaign");
+  const json j = io::read_json_file(path);
   try {
-    return campaign_from_json(json::parse(in));
+    return campaign_from_json(j);
   } catch (const json::exception& e) {
     throw std::invalid_argument(path + ": " + e.what());
   } catch (const std::invalid_argument& e) {

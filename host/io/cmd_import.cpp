@@ -5,6 +5,7 @@
 
 #include "host/app/cli_options.h"
 #include "host/app/command.h"
+#include "host/io/staged_file.h"
 #include "host/io/import.h"
 #include "host/poses/detect.h"
 #include "host/poses/recording.h"
@@ -53,7 +54,10 @@ int run_import(int argc, char** argv) {
   using imuforge::io::LogEncoding;
   const LogEncoding enc = imuforge::io::encoding_from_name(format);
   try {
-    auto s = imuforge::io::import_recording(o, out, enc);
+    if (enc == LogEncoding::kAuto) enc = imuforge::io::encoding_from_path(out);
+    imuforge::io::StagedFile staged(out);
+    auto s = imuforge::io::import_recording(o, staged.path(), enc);
+    staged.commit();
     std::fprintf(stderr, "imported %llu rows, %.1f s at %.3f Hz -> %s\n", static_cast<unsigned long long>(s.rows),
                  s.duration_s, s.sample_rate_hz, out.c_str());
     if (!no_preview) {
@@ -68,7 +72,7 @@ int run_import(int argc, char** argv) {
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge import: %s\n", e.what());
-    return imuforge::app::kExitFailed;
+    return imuforge::app::exit_code_for(e);
   }
   return imuforge::app::kExitOk;
 }

@@ -44,7 +44,7 @@ double to_double(const std::string& s, const std::string& where) {
   if (!s.empty() && *b == '+') ++b;
   auto r = std::from_chars(b, s.data() + s.size(), v);
   if (r.ec != std::errc() || r.ptr != s.data() + s.size() || !std::isfinite(v))
-    throw LogError(where + ": expected a number, got '" + s + "'");
+    throw LogError(where + ": expected a number, got " + quote_for_message(s));
   return v;
 }
 
@@ -52,7 +52,7 @@ std::int32_t to_count(const std::string& s, double lo, double hi, const std::str
   double v = to_double(s, where);
   if (v != std::floor(v) || v < lo || v > hi)
     throw LogError(where + ": expected an integer count in [" + std::to_string(static_cast<long>(lo)) + ", " +
-                   std::to_string(static_cast<long>(hi)) + "], got '" + s + "'");
+                   std::to_string(static_cast<long>(hi)) + "], got " + quote_for_message(s));
   return static_cast<std::int32_t>(v);
 }
 
@@ -70,7 +70,7 @@ struct XsensRow {
 bool xsens_line(std::ifstream& f, const std::string& path, std::size_t& line_no, std::vector<std::string>& cells,
                 XsensRow& r) {
   std::string line;
-  while (std::getline(f, line)) {
+  while (read_line_bounded(f, line, path + ":" + std::to_string(line_no + 1))) {
     ++line_no;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     split(line, " \t", cells);
@@ -174,16 +174,18 @@ ImportSummary import_mpu6050(const ImportOptions& o, const std::string& out, Log
   std::vector<std::pair<std::string, std::string>> file_meta;
   // Metadata rows until the header `ax,ay,az,gx,gy,gz`.
   while (true) {
-    if (!std::getline(f, line)) throw LogError(o.in + ": no header line 'ax,ay,az,gx,gy,gz'");
+    if (!read_line_bounded(f, line, o.in + ":" + std::to_string(ln + 1)))
+      throw LogError(o.in + ": no header line 'ax,ay,az,gx,gy,gz'");
     ++ln;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     split(line, ",", cells);
-    if (cells.size() == 6 && cells[0] == "ax") {
+    // The header (also one in another order: the columns are positional, so that is an error below).
+    if (cells.size() == 6 && std::find(cells.begin(), cells.end(), "ax") != cells.end()) {
       const char* want[6] = {"ax", "ay", "az", "gx", "gy", "gz"};
       for (int k = 0; k < 6; ++k)
         if (cells[static_cast<std::size_t>(k)] != want[k])
-          throw LogError(o.in + ":" + std::to_string(ln) + ": header column " + std::to_string(k + 1) + " is '" +
-                         cells[static_cast<std::size_t>(k)] + "', expected '" + want[k] + "'");
+          throw LogError(o.in + ":" + std::to_string(ln) + ": header column " + std::to_string(k + 1) + " is " +
+                         quote_for_message(cells[static_cast<std::size_t>(k)]) + ", expected '" + want[k] + "'");
       break;
     }
     if (cells.size() == 2) {
@@ -215,7 +217,7 @@ ImportSummary import_mpu6050(const ImportOptions& o, const std::string& out, Log
   row.segment = -1;
   row.has_ref = false;
   ImportSummary sum;
-  while (std::getline(f, line)) {
+  while (read_line_bounded(f, line, o.in + ":" + std::to_string(ln + 1))) {
     ++ln;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     split(line, ",", cells);

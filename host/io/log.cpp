@@ -79,10 +79,10 @@ bool parse_int32(const char* b, const char* e, std::int32_t& out) {
 void apply_meta(LogMeta& m, const std::string& key, const std::string& val, const std::string& where) {
   auto need_num = [&](double& dst) {
     if (!parse_double(val.data(), val.data() + val.size(), dst))
-      throw LogError(where + ": metadata '" + key + "' is not a number: '" + val + "'");
+      throw LogError(where + ": metadata '" + key + "' is not a number: " + quote_for_message(val));
   };
   if (key == "format") {
-    if (val != "imuforge-log") throw LogError(where + ": format is '" + val + "', expected imuforge-log");
+    if (val != "imuforge-log") throw LogError(where + ": format is " + quote_for_message(val) + ", expected imuforge-log");
   } else if (key == "format_version") {
     double v;
     need_num(v);
@@ -114,7 +114,7 @@ void apply_meta(LogMeta& m, const std::string& key, const std::string& val, cons
     if (v != std::floor(v) || v < 2 || v > 32) throw LogError(where + ": " + key + " must be an integer 2..32, got '" + val + "'");
     (key == "accel_bits" ? m.accel_bits : m.gyro_bits) = static_cast<int>(v);
   } else {
-    if (!valid_key(key)) throw LogError(where + ": invalid metadata key '" + key + "'");
+    if (!valid_key(key)) throw LogError(where + ": invalid metadata key " + quote_for_message(key));
     m.extra.emplace_back(key, val);
   }
 }
@@ -231,6 +231,17 @@ bool read_line(std::FILE* f, std::vector<char>& buf, const std::string& where) {
 
 
 void LogReader::open(const std::string& path) {
+  // A header that does not parse leaves the reader closed (the constructor throws, so the destructor
+  // would never run: without this, every refused file leaked its FILE*).
+  try {
+    open_parse(path);
+  } catch (...) {
+    close();
+    throw;
+  }
+}
+
+void LogReader::open_parse(const std::string& path) {
   close();
   path_ = path;
   meta_ = LogMeta{};
@@ -238,6 +249,9 @@ void LogReader::open(const std::string& path) {
   rows_ = 0;
   line_ = 0;
   declared_rows_ = 0;
+  last_t_s_ = 0.0;
+  cur_segment_ = -1;
+  closed_segments_.clear();
   f_ = std::fopen(path.c_str(), "rb");
   if (!f_) throw LogError(path + ": cannot open: " + std::strerror(errno));
   char magic[8] = {};
@@ -325,7 +339,7 @@ void LogReader::open(const std::string& path) {
         if (names[i] == "tbl_rate_" + std::to_string(t)) fld = 17 + 2 * t;
       }
       if (fld >= 0) {
-        if (have[fld]) throw LogError(where + ": column '" + names[i] + "' appears twice");
+        if (have[fld]) throw LogError(where + ": column " + quote_for_message(names[i]) + " appears twice");
         have[fld] = true;
       }
       cols[i] = fld;
@@ -347,6 +361,7 @@ bool LogReader::next(LogRow& row) {
     if (!f_) throw LogError(path_ + ": log not open");
     if (!(enc_ == LogEncoding::kBinary ? next_bin(row) : next_csv(row))) return false;
   }
+  check_row(row);
   // A count outside the declared word width is a corrupt row or wrong metadata: either way the clip
   // rule (a count at the width's limit) would misjudge it, so it is refused here, by line.
   for (int c = 0; c < 6; ++c) {
@@ -361,6 +376,36 @@ bool LogReader::next(LogRow& row) {
                    std::to_string(raw_max(bits)) + ")");
   }
   return true;
+}
+
+// What a row may not be whatever its encoding: time running backwards, a segment that comes back after
+// another one began (the same dwell twice: a spliced or duplicated file), infinite values (NaN is the
+// format's "unknown" for temperatures and table axes, Inf is never a reading).
+void LogReader::check_row(const LogRow& row) {
+  const std::string where = enc_ == LogEncoding::kBinary ? path_ + ": record " + std::to_string(rows_ - 1)
+                                                         : path_ + ":" + std::to_string(line_);
+  if (rows_ > 1 && row.t_s < last_t_s_) {
+    throw LogError(where + ": t_s " + std::to_string(row.t_s) + " goes back in time (previous row " +
+                   std::to_string(last_t_s_) + ")");
+  }
+  last_t_s_ = row.t_s;
+  if (row.segment < -1) throw LogError(where + ": segment " + std::to_string(row.segment) + " (must be >= -1)");
+  if (row.segment != cur_segment_) {
+    if (cur_segment_ >= 0) closed_segments_.insert(cur_segment_);
+    if (row.segment >= 0 && closed_segments_.count(row.segment) != 0) {
+      throw LogError(where + ": segment " + std::to_string(row.segment) +
+                     " appears again after other segments (a duplicated or spliced segment)");
+    }
+    cur_segment_ = row.segment;
+  }
+  const auto inf = [](double v) { return std::isinf(v); };
+  if (inf(row.temp_C) || inf(row.chamber_C)) throw LogError(where + ": temp_C/chamber_C is infinite");
+  for (int i = 0; i < 3; ++i) {
+    if (inf(row.table_angle_rad[i]) || inf(row.table_rate_rad_s[i])) throw LogError(where + ": table angle/rate is infinite");
+    if (row.has_ref && !(std::isfinite(row.f_ref[i]) && std::isfinite(row.w_ref[i]))) {
+      throw LogError(where + ": f_ref/w_ref is not finite");
+    }
+  }
 }
 
 bool LogReader::next_bin(LogRow& row) {
@@ -420,8 +465,8 @@ bool LogReader::next_csv(LogRow& row) {
     int fld = col_map_[col];
     auto fail = [&](const char* what) {
       throw LogError(path_ + ":" + std::to_string(line_) + ": column " + std::to_string(col + 1) + " (" +
-                     (fld >= 0 && fld < 16 ? kRequired[fld] : "table") + "): " + what + ": '" + std::string(a, e) +
-                     "'");
+                     (fld >= 0 && fld < 16 ? kRequired[fld] : "table") + "): " + what + ": " +
+                     quote_for_message(std::string(a, e)));
     };
     if (fld >= 0) {
 
@@ -484,6 +529,9 @@ void LogReader::rewind() {
   if (std::fseek(f_, data_offset_, SEEK_SET) != 0) throw LogError(path_ + ": cannot seek: " + std::strerror(errno));
   rows_ = 0;
   line_ = data_line_;
+  last_t_s_ = 0.0;
+  cur_segment_ = -1;
+  closed_segments_.clear();
 }
 
 // ================================================================= writer

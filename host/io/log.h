@@ -25,8 +25,11 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <unordered_set>
 #include <utility>
 #include <vector>
+
+#include "host/io/input_error.h"
 
 namespace imuforge::io {
 
@@ -41,9 +44,10 @@ constexpr std::size_t kLogBinaryRecordBytes = 152;
 // The 8 magic bytes opening a binary log.
 constexpr char kLogBinaryMagic[9] = "IMUFLOG1";
 
-class LogError : public std::runtime_error {
+// Bad input (exit code 2), also for a log that cannot be created where the user asked.
+class LogError : public InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using InputError::InputError;
 };
 
 struct LogMeta {
@@ -132,9 +136,14 @@ class LogReader {
   std::uint64_t declared_rows() const { return declared_rows_; }
 
  private:
+  void open_parse(const std::string& path);
   bool next_csv(LogRow& row);
   bool next_bin(LogRow& row);
   std::unique_ptr<h5::Reader> h5_;  // HDF5 encoding (host/io/log_h5.cpp)
+  void check_row(const LogRow& row);  // throws LogError: time backwards, segment again, Inf
+  double last_t_s_ = 0.0;
+  std::int32_t cur_segment_ = -1;
+  std::unordered_set<std::int32_t> closed_segments_;
   std::FILE* f_ = nullptr;
   std::string path_;
   LogMeta meta_;

@@ -1,5 +1,7 @@
 #include "host/model/sensor_model.h"
 
+#include "host/io/input_error.h"
+
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -158,11 +160,8 @@ SensorModel sensor_model_from_json(const json& j) {
 }
 
 SensorModel load_sensor_model(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(path + ": cannot open sensor model");
-  json j;
+  const json j = io::read_json_file(path);
   try {
-    j = json::parse(in);
     return sensor_model_from_json(j);
   } catch (const json::exception& e) {
     throw std::invalid_argument(path + ": " + e.what());
@@ -307,10 +306,9 @@ ModelSpec model_spec_from_json(const json& j) {
 }
 
 ModelSpec load_model_spec(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(path + ": cannot open model file");
+  const json j = io::read_json_file(path);
   try {
-    return model_spec_from_json(json::parse(in));
+    return model_spec_from_json(j);
   } catch (const json::exception& e) {
     throw std::invalid_argument(path + ": " + e.what());
   } catch (const std::invalid_argument& e) {

@@ -210,8 +210,8 @@ py::object solve(const std::string& log_path, const py::object& model, const std
   if (mode == "reference-free") {
     const solver::RawRecording rec = solver::read_recording(log);
     solver::ReferenceFreeOptions o;
-    o.window_s = static_window_s;
-    o.min_duration_s = static_min_s;
+    o.detect.window_s = static_window_s;
+    o.detect.min_dwell_s = static_min_s;
     const solver::ReferenceFreeResult r = solver::solve_reference_free(rec, spec, o);
     res.estimate = r.estimate;
     res.observability = r.observability;

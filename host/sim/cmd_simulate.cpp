@@ -8,6 +8,7 @@
 #include "host/app/cli_options.h"
 #include "host/io/campaign_file.h"
 #include "host/app/command.h"
+#include "host/io/staged_file.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/physics/campaign.h"
@@ -78,7 +79,7 @@ int run_simulate(int argc, char** argv) {
     sensor = model::load_sensor_model(sensor_path);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge simulate: %s\n", e.what());
-    return app::kExitFailed;
+    return app::exit_code_for(e);
   }
   sim::SimOptions opt;
   opt.seed = seed;
@@ -89,17 +90,23 @@ int run_simulate(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   sim::SimSummary sum;
   try {
-    io::LogWriter w(out_path, sim::make_log_meta(campaign, sensor, opt), enc);
+    if (enc == io::LogEncoding::kAuto) enc = io::encoding_from_path(out_path);
+    io::StagedFile out(out_path);
+    io::LogWriter w(out.path(), sim::make_log_meta(campaign, sensor, opt), enc);
     sum = sim::simulate(campaign, sensor, opt, w);
     w.close();
     if (!truth_path.empty()) {
-      std::ofstream t(truth_path);
+      io::StagedFile truth(truth_path);
+      std::ofstream t(truth.path());
       t << sum.truth.dump(2) << "\n";
+      t.close();
       if (!t) throw std::runtime_error(truth_path + ": cannot write truth file");
+      truth.commit();
     }
+    out.commit();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge simulate: %s\n", e.what());
-    return app::kExitFailed;
+    return app::exit_code_for(e);
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (!quiet)

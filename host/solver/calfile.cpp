@@ -72,26 +72,4 @@ nlohmann::json calibration_to_json(const CalibrationResult& r) {
   return j;
 }
 
-Estimate calibration_from_json(const nlohmann::json& j) {
-  if (!j.is_object() || j.value("format", "") != kCalFormat)
-    throw SolverError("not an imuforge cal.json (\"format\" must be \"imuforge-cal\")");
-  const auto it = j.find("parameters");
-  if (it == j.end() || !it->is_array()) throw SolverError("cal.json: missing array \"parameters\"");
-  Estimate e;
-  const long n = static_cast<long>(it->size());
-  e.value.resize(n);
-  e.covariance = Eigen::MatrixXd::Zero(n, n);
-  long i = 0;
-  for (const auto& p : *it) {
-    if (!p.is_object() || !p.contains("name") || !p["name"].is_string() || !p.contains("value") || !p["value"].is_number())
-      throw SolverError("cal.json: parameters[" + std::to_string(i) + "] needs a string name and a numeric value");
-    e.names.push_back(p["name"].get<std::string>());
-    e.value[i] = p["value"].get<double>();
-    const double s = p.contains("sigma") && p["sigma"].is_number() ? p["sigma"].get<double>() : NAN;
-    e.covariance(i, i) = s * s;
-    ++i;
-  }
-  return e;
-}
-
 }  // namespace imuforge::solver

@@ -36,7 +36,8 @@ struct CalibrationResult {
 };
 
 nlohmann::json calibration_to_json(const CalibrationResult& r);
-// Reads back parameters {name: value} (and sigma when present); throws SolverError on a malformed file.
+// Reads back parameters {name: value} (and sigma when present); throws io::InputError naming the key on a
+// malformed file.
 Estimate calibration_from_json(const nlohmann::json& j);
 // Current UTC time as ISO 8601 (provenance).
 using io::utc_now_iso8601;  // host/io/utc_time.h

@@ -11,6 +11,7 @@
 
 #include "host/app/command.h"
 #include "host/io/campaign_file.h"
+#include "host/io/input_error.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/solver/calfile.h"
@@ -199,13 +200,11 @@ int run_solve(int argc, char** argv) {
 
   model::ModelSpec spec;
   nlohmann::json spec_json;
+  spec_json = io::read_json_file(a.model);
   try {
-    std::ifstream f(a.model);
-    if (!f) throw SolverError("cannot open model '" + a.model + "'");
-    spec_json = nlohmann::json::parse(f);
     spec = model::model_spec_from_json(spec_json);
   } catch (const std::exception& e) {
-    throw SolverError("model '" + a.model + "': " + e.what());
+    throw io::InputError(a.model + ": " + e.what());
   }
 
   io::LogReader log(a.log);

@@ -1,5 +1,7 @@
 #include "host/solver/online.h"
 
+#include "host/io/input_error.h"
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -37,14 +39,13 @@ SigmaSpec sigma_spec_from_json(const nlohmann::json& j) {
 }
 
 SigmaSpec load_sigma_spec(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw SolverError("cannot open sigma spec '" + path + "'");
+  const nlohmann::json j = io::read_json_file(path);
   try {
-    return sigma_spec_from_json(nlohmann::json::parse(f));
+    return sigma_spec_from_json(j);
   } catch (const nlohmann::json::exception& e) {
-    throw SolverError("sigma spec '" + path + "': " + e.what());
+    throw io::InputError(path + ": " + e.what());
   } catch (const SolverError& e) {
-    throw SolverError("'" + path + "': " + e.what());
+    throw io::InputError(path + ": " + e.what());
   }
 }
 

@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "host/app/command.h"
+#include "host/io/staged_file.h"
 #include "host/io/log.h"
 #include "host/table/host_kernel.h"
 #include "host/table/table_writer.h"
@@ -41,7 +42,9 @@ int run_compensate(int argc, char** argv) {
   try {
     const fw::Table t = table::read_table_file(table_path);
     const table::KernelPath path = path_name == "fixed" ? table::KernelPath::kFixed : table::KernelPath::kF32;
-    const table::CompensateSummary s = table::compensate_log(t, path, step_degC, in_path, out_path, temp_override);
+    io::StagedFile out(out_path);
+    const table::CompensateSummary s = table::compensate_log(t, path, step_degC, in_path, out.path(), temp_override);
+    out.commit();
     if (!quiet)
       std::fprintf(stderr, "imuforge compensate: %llu rows -> %s (%s path); temperature clamped %llu, accel saturated %llu, "
                    "gyro saturated %llu\n",
@@ -50,7 +53,7 @@ int run_compensate(int argc, char** argv) {
                    static_cast<unsigned long long>(s.gyro_saturated));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge compensate: error: %s\n", e.what());
-    return app::kExitFailed;
+    return app::exit_code_for(e);
   }
   return app::kExitOk;
 }

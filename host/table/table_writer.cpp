@@ -117,7 +117,7 @@ fw::Table parse_table(const std::vector<std::uint8_t>& bytes, const std::string&
   return t;
 }
 
-fw::Table read_table_file(const std::string& path) {
+static fw::Table read_table_file_unchecked(const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) throw TableError(path + ": cannot open: " + std::strerror(errno), 0);
   std::vector<std::uint8_t> bytes;
@@ -136,6 +136,14 @@ fw::Table read_table_file(const std::string& path) {
                          std::to_string(fw::kTableMaxSize) + " bytes",
                      fw::kTableLengthMismatch);
   return parse_table(bytes, path);
+}
+
+fw::Table read_table_file(const std::string& path) {
+  try {
+    return read_table_file_unchecked(path);
+  } catch (const TableError& e) {
+    throw TableFileError(e.what(), e.code());  // the user handed this file: bad input
+  }
 }
 
 }  // namespace imuforge::table

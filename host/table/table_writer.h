@@ -11,6 +11,8 @@
 // y are SI values (raw · lsb); b in m/s² and rad/s; M, C dimensionless; G, G_s in (rad/s)/(m/s²).
 // Breakpoints must be strictly increasing; 1 to 16 of them.
 #pragma once
+
+#include "host/io/input_error.h"
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -30,6 +32,12 @@ class TableError : public std::runtime_error {
  private:
   int code_;
 };
+// A table file that cannot be used (read_table_file): bad input, exit code 2.
+class TableFileError : public TableError, public io::BadInput {
+ public:
+  using TableError::TableError;
+};
+
 
 struct BreakpointSpec {
   double temp_degC = 25.0;

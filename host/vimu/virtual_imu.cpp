@@ -107,7 +107,7 @@ VirtualImu::VirtualImu(VirtualImuConfig cfg) : cfg_(std::move(cfg)), impl_(std::
   nc.isotp_st_min_raw = cfg_.isotp_st_min_raw;
   // A Linux process (worse: one inside an emulated VM) can be descheduled for hundreds of ms; the
   // sensor is sampled on its own clock, so catch up on up to 5 s of samples rather than drop them.
-  nc.max_catch_up_samples = 5000;
+  nc.max_catch_up_samples = cfg_.max_catch_up_samples;
 }
 
 VirtualImu::~VirtualImu() { stop(); }

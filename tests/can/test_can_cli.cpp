@@ -76,8 +76,8 @@ TEST(CanCli, VimuProcessAndImuforgeCan) {
   r = sh(base + "flash --table " + write_table(31337, 6) + " --key-hex " + std::string(64, 'a'));
   EXPECT_EQ(r.rc, 1) << r.out;
   EXPECT_NE(r.out.find("authorisation failed"), std::string::npos) << r.out;
-  r = sh(base + "flash --table " + write_table(4, 7) + " --dev-key");  // another device's table
-  EXPECT_EQ(r.rc, 1) << r.out;
+  r = sh(base + "flash --table " + write_table(4, 7) + " --dev-key");  // another device's table: bad input
+  EXPECT_EQ(r.rc, 2) << r.out;
 
   const std::string back = ::testing::TempDir() + "can_cli_back.bin";
   r = sh(base + "read-table --out " + back);

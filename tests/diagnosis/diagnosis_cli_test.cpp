@@ -43,17 +43,17 @@ TEST(DiagnosisCli, WritesOutputsAndFindsTheEffect) {
   EXPECT_EQ(j["ranking"][0]["sensor"], "gyro");
   EXPECT_TRUE(fs::exists(dir / "out" / "report.html"));
 
-  // Usage errors -> 2; bad model or bad log -> 1.
+  // Usage errors, a bad model or a bad log -> 2 (bad input).
   EXPECT_EQ(run("--model " + model + " --out " + (dir / "o2").string()), 2);
   {
     std::ofstream bad(dir / "bad.json");
     bad << "{\"format\":\"imuforge-model\",\"version\":1,\"effects\":{\"accel.nonsense\":{}}}";
   }
-  EXPECT_EQ(run("--log " + log + " --model " + (dir / "bad.json").string() + " --out " + (dir / "o3").string()), 1);
+  EXPECT_EQ(run("--log " + log + " --model " + (dir / "bad.json").string() + " --out " + (dir / "o3").string()), 2);
   {
     std::ofstream bad(dir / "bad.csv");
     bad << "# format=imuforge-log\nthis is not a log\n";
   }
-  EXPECT_EQ(run("--log " + (dir / "bad.csv").string() + " --model " + model + " --out " + (dir / "o4").string()), 1);
+  EXPECT_EQ(run("--log " + (dir / "bad.csv").string() + " --model " + model + " --out " + (dir / "o4").string()), 2);
   if (!std::getenv("KEEP")) fs::remove_all(dir);
 }

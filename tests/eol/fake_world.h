@@ -17,6 +17,16 @@ namespace imuforge::eoltest {
 
 using namespace imuforge::eol;
 
+// The lab's physical state, as plain data: a test that kills the host process can keep it in shared
+// memory so that the lab runs on across the crash, as a real one does (tests/eol/test_crash.cpp).
+struct LabState {
+  bool valid = false;
+  double t, setpoint, slewed, ramp, air, die, ready_t;
+  std::array<double, 3> ang, rate;
+  std::uint32_t flashed_len;
+  std::uint8_t flashed[16384];
+};
+
 struct FakeWorld {
   double t = 0;
   // chamber + die
@@ -31,6 +41,37 @@ struct FakeWorld {
   model::CompiledTriad ca, cg;
   double noise_a = 2e-3, noise_g = 2e-4;
   std::mt19937_64 rng{42};
+  // When set, every stream starts from a seed made of the pose, the table rate and the chamber setpoint:
+  // a segment collected again (after a crash) sees the same noise, so a resumed run can be compared with
+  // an uninterrupted one far below σ (tests/eol/test_crash.cpp).
+  bool noise_per_stream = false;
+  LabState* persist = nullptr;  // when set: restored from at start (if valid), saved after every step
+  void save(LabState& s) const {
+    s.t = t, s.setpoint = setpoint, s.slewed = slewed, s.ramp = ramp, s.air = air, s.die = die, s.ready_t = ready_t;
+    s.ang = ang, s.rate = rate;
+    s.flashed_len = static_cast<std::uint32_t>(std::min(flashed.size(), sizeof s.flashed));
+    std::copy_n(flashed.begin(), s.flashed_len, s.flashed);
+    s.valid = true;
+  }
+  void restore(const LabState& s) {
+    t = s.t, setpoint = s.setpoint, slewed = s.slewed, ramp = s.ramp, air = s.air, die = s.die, ready_t = s.ready_t;
+    ang = s.ang, rate = s.rate;
+    flashed.assign(s.flashed, s.flashed + s.flashed_len);
+  }
+  std::uint64_t stream_seed() const {
+    std::uint64_t h = 1469598103934665603ull;
+    auto mix = [&h](double v) {
+      const auto q = static_cast<std::int64_t>(std::llround(v * 1000.0));
+      h = (h ^ static_cast<std::uint64_t>(q)) * 1099511628211ull;
+    };
+    const bool turning = rate != std::array<double, 3>{};
+    for (int i = 0; i < 3; ++i) {
+      if (!turning) mix(ang[static_cast<std::size_t>(i)]);  // a turning table's angle depends on when
+      mix(rate[static_cast<std::size_t>(i)]);
+    }
+    mix(setpoint);
+    return h;
+  }
   physics::TableGeometry geom;
   Eigen::Vector3d g_ned, wie_ned;
   std::vector<std::uint8_t> flashed;
@@ -86,6 +127,7 @@ struct FakeWorld {
     }
     for (int i = 0; i < 3; ++i) ang[static_cast<std::size_t>(i)] += rate[static_cast<std::size_t>(i)] * dt;
     t += dt;
+    if (persist != nullptr) save(*persist);
   }
 
   ImuSample sample() {
@@ -165,13 +207,17 @@ class FakeDevice : public Device {
   }
   StreamStats stream(double rate_hz, const std::function<bool(const ImuSample&)>& cb) override {
     StreamStats st;
+    if (w_.noise_per_stream) w_.rng.seed(w_.stream_seed());
     for (;;) {
       w_.step(1.0 / rate_hz);
       ++st.received;
       if (!cb(w_.sample())) return st;
     }
   }
-  void flash_table(const std::vector<std::uint8_t>& b, std::uint32_t) override { w_.flashed = b; }
+  void flash_table(const std::vector<std::uint8_t>& b, std::uint32_t) override {
+    w_.flashed = b;
+    if (w_.persist != nullptr) w_.save(*w_.persist);
+  }
   std::vector<std::uint8_t> read_table() override { return w_.flashed; }
 
  private:

@@ -51,11 +51,11 @@ TEST(Cli, SimulateIsDeterministicAndWritesTruth) {
 TEST(Cli, ExitCodes) {
   if (!std::filesystem::exists(IMUFORGE_BIN)) GTEST_SKIP() << "imuforge not built";
   EXPECT_EQ(sh("simulate --campaign " + ex("campaign-small.json")), 2);  // missing options
-  EXPECT_EQ(sh("simulate --campaign " + ex("campaign-small.json") + " --sensor /nonexistent.json --out " + tmp("x.csv")), 1);
+  EXPECT_EQ(sh("simulate --campaign " + ex("campaign-small.json") + " --sensor /nonexistent.json --out " + tmp("x.csv")), 2);  // bad input: exit 2
   std::ofstream(tmp("bad-sensor.json")) << R"({"accel":{"lsb":1e-3},"gyro":{"lsb":1e-4},"effects":{"gyro.bias":{"q":1}}})";
-  EXPECT_EQ(sh("simulate --campaign " + ex("campaign-small.json") + " --sensor " + tmp("bad-sensor.json") + " --out " + tmp("x.csv")), 1);
+  EXPECT_EQ(sh("simulate --campaign " + ex("campaign-small.json") + " --sensor " + tmp("bad-sensor.json") + " --out " + tmp("x.csv")), 2);
   EXPECT_EQ(sh("import --format xsens-imutk --in " + tmp("x.csv") + " --out " + tmp("y.csv")), 2);  // needs --in-gyro
-  EXPECT_EQ(sh("import --format mpu6050-csv --in /nonexistent.csv --out " + tmp("y.csv")), 1);
+  EXPECT_EQ(sh("import --format mpu6050-csv --in /nonexistent.csv --out " + tmp("y.csv")), 2);
 }
 
 // HDF5 is a first-class log: `simulate --format h5` writes it, `convert` carries it to binary byte for

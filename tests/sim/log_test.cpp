@@ -1,6 +1,7 @@
 // Log v1: CSV, binary and HDF5 round trips, auto-detection, and clear errors on malformed files.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <random>
 
@@ -398,4 +399,19 @@ TEST(Log, Hdf5ErrorsNameTheDataset) {
   const std::string e = error_of(p);
   EXPECT_NE(e.find(p), std::string::npos) << e;
   EXPECT_NE(e, "no error");
+// Found by fuzz_log_csv (issue 16): a refused header left its FILE* open (the constructor threw, so the
+// destructor never ran). Open descriptors are counted before and after 200 refusals.
+TEST(Log, RefusedFilesDoNotLeakDescriptors) {
+  auto open_fds = [] {
+    std::size_t n = 0;
+    for (const auto& e : std::filesystem::directory_iterator("/proc/self/fd")) n += e.exists() ? 1 : 0;
+    return n;
+  };
+  const std::string p = ::testing::TempDir() + "/imuforge-not-a-log.csv";
+  const std::size_t before = open_fds();
+  std::ofstream(p) << "this is not a log\n";
+  for (int i = 0; i < 100; ++i) EXPECT_THROW(imuforge::io::LogReader r(p), imuforge::io::LogError);
+  std::ofstream(p) << "# format_version=1\nt_s,segment\n";  // header lacks columns
+  for (int i = 0; i < 100; ++i) EXPECT_THROW(imuforge::io::LogReader r(p), imuforge::io::LogError);
+  EXPECT_EQ(open_fds(), before);
 }

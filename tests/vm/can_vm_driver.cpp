@@ -2,8 +2,11 @@
 // linked, against imuforge-vimu on vcan0, through the kernel's CAN_ISOTP (commands) and CAN_RAW (stream).
 // Prints one line per check ("VMTEST <name> PASS|FAIL ...") and benchmark lines ("BENCH ..."), parsed
 // by the host-side script. Exit code 0 iff every check passed.
-//   can_vm_driver run --bus socketcan:vcan0 --node 1 --serial 777 --stream-s 60 --bench-s 10
-//   can_vm_driver candump <file> --node 1 --serial 777     (decode candump -L output)
+//   can_vm_driver run --bus socketcan:vcan0 --node 1 --serial 777 --slow-s 20 --stream-s 60 --bench-s 10
+//   can_vm_driver candump <file> --node 1 --host-counts /tmp/host_counts   (decode candump -L output)
+// What must hold under any load (checks): the table flash, no sample lost at 200 Hz and 1 kHz, and every
+// lost frame counted exactly (host count = candump's count). What is measured (BENCH): the 2 kHz run,
+// throughput, flash time.
 #include <chrono>
 #include <cinttypes>
 #include <cstdio>
@@ -11,6 +14,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -56,26 +60,42 @@ std::vector<std::uint8_t> make_table(std::uint64_t serial, std::uint32_t seq, in
   return b;
 }
 
-void stream_run(can::Client& c, std::uint16_t rate, double seconds, bool check) {
+// Host-side totals over every stream run, compared with candump's own count afterwards: a frame the
+// host missed must be one the bus never carried (same count), not one the host dropped silently.
+struct HostTotals {
+  std::uint64_t frames_lost = 0, samples_lost = 0, incomplete = 0;
+};
+HostTotals g_totals;
+
+// One stream run. `must_hold`: the station rates (200 Hz, 1 kHz), where no sample may be lost whatever
+// the load: every sample the node counted as sent arrives complete, once. Otherwise a benchmark figure.
+// Throughput (samples/s delivered) is always a figure: an emulated node under load may fall behind and
+// catch up, and the backlog is cut at stop; that is not a loss (the node never sent those samples).
+void stream_run(can::Client& c, std::uint16_t rate, double seconds, bool must_hold) {
+  const std::uint32_t sent_before = c.status().samples_sent;
   const auto t0 = Clock::now();
   c.start_stream(rate, proto::kChAll, nullptr);
   std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int>(seconds * 1000)));
   const std::uint32_t node_sent_total = c.stop_stream(300);
   const double el = std::chrono::duration<double>(Clock::now() - t0).count();
   const can::StreamCounters k = c.stream_counters();
+  const std::uint64_t sent = node_sent_total - sent_before;
+  g_totals.frames_lost += k.frames_lost;
+  g_totals.samples_lost += k.lost;
+  g_totals.incomplete += k.incomplete;
   const double loss = k.frames == 0 ? 1.0 : static_cast<double>(k.frames_lost) / static_cast<double>(k.frames + k.frames_lost);
   char buf[512];
   std::snprintf(buf, sizeof buf,
-                "rate_hz=%u seconds=%.1f samples=%" PRIu64 " frames=%" PRIu64 " lost=%" PRIu64 " incomplete=%" PRIu64
-                " duplicated=%" PRIu64 " reordered=%" PRIu64 " frames_lost=%" PRIu64
-                " throughput_samples_s=%.1f frame_loss=%.6f node_samples_sent_total=%u",
-                rate, seconds, k.received, k.frames, k.lost, k.incomplete, k.duplicated, k.reordered, k.frames_lost,
-                static_cast<double>(k.received) / el, loss, node_sent_total);
+                "rate_hz=%u seconds=%.1f node_sent=%" PRIu64 " samples=%" PRIu64 " frames=%" PRIu64 " lost=%" PRIu64
+                " incomplete=%" PRIu64 " duplicated=%" PRIu64 " reordered=%" PRIu64 " frames_lost=%" PRIu64
+                " throughput_samples_s=%.1f frame_loss=%.6f",
+                rate, seconds, sent, k.received, k.frames, k.lost, k.incomplete, k.duplicated, k.reordered,
+                k.frames_lost, static_cast<double>(k.received) / el, loss);
   std::printf("BENCH stream %s\n", buf);
-  if (check) {
+  if (must_hold) {
     const bool ok = k.lost == 0 && k.incomplete == 0 && k.frames_lost == 0 && k.duplicated == 0 &&
-                    k.received >= static_cast<std::uint64_t>(0.95 * rate * seconds);
-    report(rate == 1000 ? "stream1000" : "stream", ok, buf);
+                    k.received == sent && k.received > 0;
+    report(("stream" + std::to_string(rate)).c_str(), ok, buf);
   }
 }
 
@@ -85,6 +105,8 @@ int run(int argc, char** argv) {
   const std::uint64_t serial = std::strtoull(arg(argc, argv, "--serial", "777").c_str(), nullptr, 10);
   const double stream_s = std::atof(arg(argc, argv, "--stream-s", "60").c_str());
   const double bench_s = std::atof(arg(argc, argv, "--bench-s", "10").c_str());
+  const double slow_s = std::atof(arg(argc, argv, "--slow-s", "20").c_str());
+  const std::string counts_out = arg(argc, argv, "--counts-out", "/tmp/host_counts");
   std::unique_ptr<can::Client> c;
   for (int i = 0; i < 50 && !c; ++i) {  // vimu may still be starting
     try {
@@ -133,16 +155,28 @@ int run(int argc, char** argv) {
     }
     report("auth", refused && c->identify().table_seq == seq, why);
 
+    stream_run(*c, 200, slow_s, true);
     stream_run(*c, 1000, stream_s, true);
     if (bench_s > 0) stream_run(*c, 2000, bench_s, false);
+    // The table is still the one flashed before the streams (streaming never touches the store).
+    std::uint32_t seq_after = 0;
+    const bool same = c->read_table(&seq_after) == table;
+    report("table_after_stream", same && seq_after == seq, "seq=" + std::to_string(seq_after));
   } catch (const std::exception& e) {
     report("exception", false, e.what());
+  }
+  if (FILE* f = std::fopen(counts_out.c_str(), "w")) {
+    std::fprintf(f, "%" PRIu64 " %" PRIu64 " %" PRIu64 "\n", g_totals.frames_lost, g_totals.samples_lost,
+                 g_totals.incomplete);
+    std::fclose(f);
   }
   return g_failed == 0 ? 0 : 1;
 }
 
 // Decodes candump -L lines "(ts) vcan0 ID#HEX" against the documented identifiers.
-int check_candump(const std::string& path, std::uint8_t node) {
+// `host_counts`: the file can_vm_driver run wrote (frames lost, samples lost, incomplete, as the host
+// counted them); the frames candump saw missing must be exactly the frames the host counted lost.
+int check_candump(const std::string& path, std::uint8_t node, const std::string& host_counts) {
   std::ifstream f(path);
   if (!f) {
     report("candump", false, "cannot open " + path);
@@ -151,6 +185,8 @@ int check_candump(const std::string& path, std::uint8_t node) {
   std::map<std::string, std::uint64_t> n;
   std::uint64_t seq_gaps = 0, seq_reorders = 0;
   long max_seq[3] = {-1, -1, -1};  // extended (no wrap expected in one VM run, handled anyway)
+  long min_seq[3] = {-1, -1, -1};
+  std::set<long> seen[3];
   std::string line;
   while (std::getline(f, line)) {
     std::istringstream ls(line);
@@ -181,6 +217,8 @@ int check_candump(const std::string& path, std::uint8_t node) {
         if (max_seq[p] >= 0 && s > max_seq[p] + 1) ++seq_gaps;  // a sample the node never sent
         if (s < max_seq[p]) ++seq_reorders;                      // delivered late (per-CPU backlog)
         if (s > max_seq[p]) max_seq[p] = s;
+        if (min_seq[p] < 0 || s < min_seq[p]) min_seq[p] = s;
+        seen[p].insert(s);
       }
     }
     if (id == proto::request_id(node, ext) || id == proto::response_id(node, ext)) {
@@ -198,12 +236,29 @@ int check_candump(const std::string& path, std::uint8_t node) {
   }
   std::string detail;
   for (const auto& [k, v] : n) detail += k + "=" + std::to_string(v) + " ";
-  // The node's counter runs on across stop/start, so any forward jump is a sample it did not send.
+  // The node's counter runs on across stop/start, so any forward jump is a sample the bus did not carry
+  // (a loss: counted, and checked against the host's count below; the station rates assert none).
   detail += "seq_gaps=" + std::to_string(seq_gaps) + " seq_reorders=" + std::to_string(seq_reorders);
+  // Frames the bus never carried: per part, sequence numbers in the observed range that never appeared.
+  std::uint64_t missing = 0;
+  for (int p = 0; p < 3; ++p) {
+    if (max_seq[p] >= 0) missing += static_cast<std::uint64_t>(max_seq[p] - min_seq[p] + 1) - seen[p].size();
+  }
+  std::uint64_t host_frames_lost = ~0ull, host_lost = 0, host_incomplete = 0;
+  if (FILE* hf = std::fopen(host_counts.c_str(), "r")) {
+    if (std::fscanf(hf, "%" SCNu64 " %" SCNu64 " %" SCNu64, &host_frames_lost, &host_lost, &host_incomplete) != 3) {
+      host_frames_lost = ~0ull;
+    }
+    std::fclose(hf);
+  }
+  report("loss_accounting", missing == host_frames_lost,
+         "candump_missing_frames=" + std::to_string(missing) + " host_frames_lost=" +
+             (host_frames_lost == ~0ull ? std::string("unreadable") : std::to_string(host_frames_lost)) +
+             " host_samples_lost=" + std::to_string(host_lost) + " host_incomplete=" + std::to_string(host_incomplete));
   const bool ok = n["unknown_id"] == 0 && n["malformed"] == 0 && n["bad_pci"] == 0 && n["bad_stream_len"] == 0 &&
                   n["stream_accel"] > 0 && n["stream_accel"] == n["stream_gyro"] &&
                   n["stream_gyro"] == n["stream_temp"] && n["req_FF"] >= 1 && n["req_CF"] >= 300 &&
-                  n["resp_FC"] >= 1 && seq_gaps == 0;
+                  n["resp_FC"] >= 1;
   report("candump", ok, detail);
   return ok ? 0 : 1;
 }
@@ -213,9 +268,11 @@ int check_candump(const std::string& path, std::uint8_t node) {
 int main(int argc, char** argv) {
   if (argc >= 2 && std::strcmp(argv[1], "run") == 0) return run(argc, argv);
   if (argc >= 3 && std::strcmp(argv[1], "candump") == 0) {
-    return check_candump(argv[2], static_cast<std::uint8_t>(std::atoi(arg(argc, argv, "--node", "1").c_str())));
+    return check_candump(argv[2], static_cast<std::uint8_t>(std::atoi(arg(argc, argv, "--node", "1").c_str())),
+                         arg(argc, argv, "--host-counts", "/tmp/host_counts"));
   }
-  std::fprintf(stderr, "usage: can_vm_driver run [--bus B] [--node N] [--serial S] [--stream-s S] [--bench-s S]\n"
-                       "       can_vm_driver candump FILE [--node N]\n");
+  std::fprintf(stderr, "usage: can_vm_driver run [--bus B] [--node N] [--serial S] [--slow-s S] [--stream-s S]\n"
+                       "                      [--bench-s S] [--counts-out FILE]\n"
+                       "       can_vm_driver candump FILE [--node N] [--host-counts FILE]\n");
   return 2;
 }
