@@ -52,7 +52,7 @@ int run_import(int argc, char** argv) {
     return imuforge::app::kExitUsage;
   }
   using imuforge::io::LogEncoding;
-  const LogEncoding enc = imuforge::io::encoding_from_name(format);
+  LogEncoding enc = imuforge::io::encoding_from_name(format);
   try {
     if (enc == LogEncoding::kAuto) enc = imuforge::io::encoding_from_path(out);
     imuforge::io::StagedFile staged(out);

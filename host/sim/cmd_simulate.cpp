@@ -50,7 +50,7 @@ int run_simulate(int argc, char** argv) {
     std::fprintf(stderr, "imuforge simulate: give --campaign or --trajectory\n");
     return app::kExitUsage;
   }
-  const io::LogEncoding enc = io::encoding_from_name(format);
+  io::LogEncoding enc = io::encoding_from_name(format);
   if (!trajectory_path.empty()) {
     try {
       const sim::TrajectoryFile tf = sim::load_trajectory(trajectory_path);

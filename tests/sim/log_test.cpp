@@ -399,6 +399,8 @@ TEST(Log, Hdf5ErrorsNameTheDataset) {
   const std::string e = error_of(p);
   EXPECT_NE(e.find(p), std::string::npos) << e;
   EXPECT_NE(e, "no error");
+}
+
 // Found by fuzz_log_csv (issue 16): a refused header left its FILE* open (the constructor threw, so the
 // destructor never ran). Open descriptors are counted before and after 200 refusals.
 TEST(Log, RefusedFilesDoNotLeakDescriptors) {
