@@ -522,13 +522,12 @@ bool LogReader::next_csv(LogRow& row) {
 void LogReader::rewind() {
   if (h5_) {
     h5_->rewind();
-    rows_ = 0;
-    return;
+  } else {
+    if (!f_) throw LogError(path_ + ": log not open");
+    if (std::fseek(f_, data_offset_, SEEK_SET) != 0) throw LogError(path_ + ": cannot seek: " + std::strerror(errno));
+    line_ = data_line_;
   }
-  if (!f_) throw LogError(path_ + ": log not open");
-  if (std::fseek(f_, data_offset_, SEEK_SET) != 0) throw LogError(path_ + ": cannot seek: " + std::strerror(errno));
   rows_ = 0;
-  line_ = data_line_;
   last_t_s_ = 0.0;
   cur_segment_ = -1;
   closed_segments_.clear();
