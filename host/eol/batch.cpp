@@ -1,5 +1,7 @@
 #include "host/eol/batch.h"
 
+#include "host/io/svg_chart.h"
+
 #include <time.h>
 
 #include <algorithm>
@@ -19,6 +21,8 @@
 #include "host/solver/fixture.h"
 
 namespace imuforge::eol {
+
+using io::html_escape;
 
 namespace {
 

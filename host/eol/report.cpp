@@ -143,6 +143,5 @@ void write_file_atomic(const std::string& path, const std::string& text) {
 
 void write_report(const std::string& path, const ReportData& d) { write_file_atomic(path, render_report(d)); }
 
-std::string html_escape(const std::string& s) { return esc(s); }
 
 }  // namespace imuforge::eol

@@ -28,8 +28,6 @@ struct ReportData {
 };
 
 std::string render_report(const ReportData& d);
-// Text for HTML element content and attribute values (& < > " escaped). O(n).
-std::string html_escape(const std::string& s);
 // Writes text to path atomically (temp file + rename). Throws std::runtime_error on I/O failure.
 void write_file_atomic(const std::string& path, const std::string& text);
 // Writes atomically (temp file + rename). Throws std::runtime_error on I/O failure.

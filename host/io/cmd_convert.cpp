@@ -8,6 +8,7 @@
 #include "host/app/cli_options.h"
 #include "host/app/command.h"
 #include "host/io/log.h"
+#include "host/io/staged_file.h"
 
 namespace {
 
@@ -26,21 +27,20 @@ int run_convert(int argc, char** argv) {
     return app.exit(e) == 0 ? imuforge::app::kExitOk : imuforge::app::kExitUsage;
   }
   namespace io = imuforge::io;
-  const std::string tmp = out + ".partial";
   try {
     io::LogEncoding enc = io::encoding_from_name(format);
     if (enc == io::LogEncoding::kAuto) enc = io::encoding_from_path(out);
     io::LogReader r(in);
-    io::LogWriter w(tmp, r.meta(), enc);
+    io::StagedFile staged(out);  // a failure halfway leaves no output
+    io::LogWriter w(staged.path(), r.meta(), enc);
     io::LogRow row;
     while (r.next(row)) w.write(row);
     w.close();
-    if (std::rename(tmp.c_str(), out.c_str()) != 0) throw io::LogError(out + ": cannot rename from " + tmp);
+    staged.commit();
     std::fprintf(stderr, "converted %llu rows -> %s\n", static_cast<unsigned long long>(r.rows_read()), out.c_str());
   } catch (const std::exception& e) {
-    std::remove(tmp.c_str());
     std::fprintf(stderr, "imuforge convert: %s\n", e.what());
-    return imuforge::app::kExitFailed;
+    return imuforge::app::kExitFailed;  // still 1 for bad input too (sim_cli_test), unlike the other commands
   }
   return imuforge::app::kExitOk;
 }

@@ -5,7 +5,6 @@
 
 #include "host/app/cli_options.h"
 #include "host/app/command.h"
-#include "host/io/staged_file.h"
 #include "host/io/import.h"
 #include "host/poses/detect.h"
 #include "host/poses/recording.h"
@@ -55,9 +54,7 @@ int run_import(int argc, char** argv) {
   LogEncoding enc = imuforge::io::encoding_from_name(format);
   try {
     if (enc == LogEncoding::kAuto) enc = imuforge::io::encoding_from_path(out);
-    imuforge::io::StagedFile staged(out);
-    auto s = imuforge::io::import_recording(o, staged.path(), enc);
-    staged.commit();
+    auto s = imuforge::io::import_recording(o, out, enc);  // staged inside: nothing left behind on failure
     std::fprintf(stderr, "imported %llu rows, %.1f s at %.3f Hz -> %s\n", static_cast<unsigned long long>(s.rows),
                  s.duration_s, s.sample_rate_hz, out.c_str());
     if (!no_preview) {

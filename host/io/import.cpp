@@ -1,4 +1,5 @@
 #include "host/io/import.h"
+#include "host/io/staged_file.h"
 
 #include "host/io/import_detail.h"
 
@@ -328,16 +329,10 @@ ImportSummary import_recording(const ImportOptions& opt, const std::string& out_
   else if (opt.format == "csv") fn = import_mapped_csv;
   else throw LogError("unknown import format '" + opt.format + "' (expected xsens-imutk, mpu6050-csv, si-csv or csv)");
   if (enc == LogEncoding::kAuto) enc = encoding_from_path(out_path);
-  const std::string tmp = out_path + ".partial";
-  try {
-    const ImportSummary s = fn(opt, tmp, enc);
-    if (std::rename(tmp.c_str(), out_path.c_str()) != 0)
-      throw LogError(out_path + ": cannot rename from " + tmp + ": " + std::strerror(errno));
-    return s;
-  } catch (...) {
-    std::remove(tmp.c_str());
-    throw;
-  }
+  StagedFile staged(out_path);  // a failed import leaves nothing behind (removed by its destructor)
+  const ImportSummary s = fn(opt, staged.path(), enc);
+  staged.commit();
+  return s;
 }
 
 }  // namespace imuforge::io

@@ -44,7 +44,7 @@ struct ImportSummary {
   double sample_rate_hz = 0;
 };
 
-// Writes the converted log to `out_path` (encoding by extension, or `enc`) through `<out_path>.partial`,
+// Writes the converted log to `out_path` (encoding by extension, or `enc`) through a staging file (host/io/staged_file.h),
 // renamed at the end: a failure leaves no output. Throws LogError naming the input file, line and column
 // on malformed input (and the map file and key for a bad column map).
 ImportSummary import_recording(const ImportOptions& opt, const std::string& out_path,
