@@ -1,7 +1,10 @@
 #include "host/eol/tracker.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include "host/poses/detect.h"
 
 namespace imuforge::eol {
 
@@ -49,6 +52,34 @@ bool Tracker::add_segment(const io::LogMeta& meta, const std::vector<io::LogRow>
   for (const auto& r : rows)
     if (r.has_ref && std::isfinite(r.temp_C)) use.push_back(&r);
   if (use.size() < 2) return false;
+  // Static step: the still samples are the pose detector's (one front end for every consumer).
+  std::string still_note;
+  {
+    bool turning = false, ref_const = true;
+    double tmin = use.front()->temp_C, tmax = tmin;
+    for (auto* r : use) {
+      for (int a = 0; a < 3; ++a) turning = turning || std::fabs(r->table_rate_rad_s[a]) > 1e-3;  // NaN: not logged
+      for (int j = 0; j < 3; ++j) ref_const = ref_const && std::fabs(r->f_ref[j] - use.front()->f_ref[j]) < 1e-3;
+      tmin = std::min(tmin, r->temp_C);
+      tmax = std::max(tmax, r->temp_C);
+    }
+    if (!turning && ref_const && tmax - tmin < 0.5 && use.size() >= 10) {
+      std::vector<io::LogRow> seg;
+      seg.reserve(use.size());
+      for (auto* r : use) seg.push_back(*r);
+      const poses::StillPart sp = poses::still_part(poses::recording_from_rows(meta, seg, "segment '" + label + "'"));
+      if (sp.rejected()) {
+        rejections_.push_back({segment, label, sp.reason});
+        return false;
+      }
+      std::vector<const io::LogRow*> kept;
+      kept.reserve(sp.samples);
+      for (const auto& [a, b] : sp.parts)
+        for (std::size_t k = a; k < b; ++k) kept.push_back(use[k]);
+      use.swap(kept);
+      still_note = sp.reason;
+    }
+  }
   double st = 0, sT = 0, stt = 0, stT = 0, m = 0;
   for (auto* r : use) {
     st += r->t_s; sT += r->temp_C; stt += r->t_s * r->t_s; stT += r->t_s * r->temp_C; m += 1;
@@ -83,6 +114,7 @@ bool Tracker::add_segment(const io::LogMeta& meta, const std::vector<io::LogRow>
   res.segment = segment;
   res.label = label;
   res.t_s = use.front()->t_s;
+  res.still_note = still_note;
   res.mean_j = Eigen::MatrixXd::Zero(6, n);
   double tsum = 0;
   std::size_t nblocks = 0;

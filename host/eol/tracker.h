@@ -30,6 +30,7 @@ struct SegmentResidual {
   double t_s = 0.0;                       // segment start, log time
   std::array<double, 6> before{};         // mean(y − u): ax ay az (m/s²) gx gy gz (rad/s)
   std::array<double, 6> after{};          // mean(y − u − J θ̂), filled by finalize_residuals()
+  std::string still_note;                 // static step: what the pose detector dropped ("" = nothing)
   Eigen::MatrixXd mean_j;                 // 6 × n mean regressor (internal)
 };
 
@@ -49,7 +50,10 @@ class Tracker {
   // Folds one segment in. Rows without reference (has_ref false) are skipped. Accelerometer rows are
   // used only when the reference specific force is constant over the segment (static dwells, rate runs
   // about the vertical): in a rate run about a tilted axis the reference would depend on the exact table
-  // phase, which the runner knows only to the stream latency. Returns false if no usable rows.
+  // phase, which the runner knows only to the stream latency. A static step (table not turning, constant
+  // reference, temperature within 0.5 °C) keeps only the samples the one pose detector (host/poses,
+  // still_part) calls still: settle margins, ringing and bumps are dropped. Returns false if no usable
+  // rows; a static step with no still part is listed in rejections() with the detector's reason.
   bool add_segment(const io::LogMeta& meta, const std::vector<io::LogRow>& rows, int segment,
                    const std::string& label);
 
@@ -68,6 +72,11 @@ class Tracker {
   // Computes SegmentResidual::after with the given parameter values (in names() order).
   void finalize_residuals(const Eigen::VectorXd& theta);
   const std::vector<SegmentResidual>& residuals() const { return residuals_; }
+  struct Rejection {
+    int segment = -1;
+    std::string label, reason;
+  };
+  const std::vector<Rejection>& rejections() const { return rejections_; }
   double T_ref_C() const { return T_ref_C_; }
 
  private:
@@ -81,6 +90,7 @@ class Tracker {
   double pooled_dof_[2] = {0, 0};
   double lsb_[2] = {0, 0};
   std::vector<SegmentResidual> residuals_;
+  std::vector<Rejection> rejections_;
 };
 
 }  // namespace imuforge::eol

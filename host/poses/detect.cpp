@@ -305,6 +305,38 @@ Detection detect_poses(const Recording& rec, const DetectOptions& o) {
   return d;
 }
 
+StillPart still_part(const Recording& rec, DetectOptions opt) {
+  StillPart sp;
+  sp.total = rec.y.size();
+  if (rec.rate_hz > 0) opt.min_dwell_s = std::min(opt.min_dwell_s, 0.5 * static_cast<double>(rec.y.size()) / rec.rate_hz);
+  const Detection d = detect_poses(rec, opt);
+  if (d.poses.empty()) {
+    std::string why = "nothing still";
+    for (const Stretch& t : d.stretches)
+      if (t.reason != "pose") {
+        why = t.reason;
+        break;
+      }
+    sp.reason = "rejected: no still part (" + why + ")";
+    return sp;
+  }
+  std::size_t best = 0;
+  for (std::size_t k = 1; k < d.poses.size(); ++k)
+    if (d.poses[k].samples > d.poses[best].samples) best = k;
+  sp.parts = d.poses[best].parts;
+  sp.samples = d.poses[best].samples;
+  char buf[160];
+  if (d.poses.size() > 1) {
+    std::snprintf(buf, sizeof buf, "attitude changed during the dwell: kept the longest of %zu poses (%zu of %zu samples)",
+                  d.poses.size(), sp.samples, sp.total);
+    sp.reason = buf;
+  } else if (sp.samples < sp.total) {
+    std::snprintf(buf, sizeof buf, "kept %zu of %zu samples (settling/motion dropped)", sp.samples, sp.total);
+    sp.reason = buf;
+  }
+  return sp;
+}
+
 std::string explain_table(const Detection& d) {
   std::string s;
   char buf[256];

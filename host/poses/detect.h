@@ -84,6 +84,18 @@ Detection detect_poses(const Recording& rec, const DetectOptions& opt = {});
 // Pose means over an arbitrary sample range (the consumers' helper for sub-ranges).
 Pose pose_over(const Recording& rec, std::size_t begin, std::size_t end);
 
+// One stretch that should be a single static pose (an end-of-line fixture's position dwell): which of its
+// samples the detector keeps (noise-adaptive still test, settle margins, attitude settling, bumps), or why
+// none. The minimum dwell is capped at half the stretch (a fixture dwell is short but known to be one pose).
+// Several poses in one dwell (the mount slipped): the longest is kept and the reason says so.
+struct StillPart {
+  std::vector<std::pair<std::size_t, std::size_t>> parts;  // sample ranges kept; empty = rejected
+  std::size_t samples = 0, total = 0;
+  std::string reason;  // why samples were dropped, or why the stretch was rejected; "" = kept whole
+  bool rejected() const { return parts.empty(); }
+};
+StillPart still_part(const Recording& stretch, DetectOptions opt = {});
+
 // The --explain-poses table, one stretch per line (start, end, duration, mean, verdict/reason).
 std::string explain_table(const Detection& d);
 

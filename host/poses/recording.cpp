@@ -6,11 +6,12 @@
 
 namespace imuforge::poses {
 
-Recording read_recording(io::LogReader& log) {
+namespace {
+
+Recording start(const io::LogMeta& m, const std::string& what) {
   Recording rec;
-  const auto& m = log.meta();
   if (!(m.accel_lsb_mps2 > 0) || !(m.gyro_lsb_rad_s > 0))
-    throw PoseError("log '" + log.path() + "' lacks positive accel_lsb/gyro_lsb metadata");
+    throw PoseError(what + " lacks positive accel_lsb/gyro_lsb metadata");
   if (std::isfinite(m.gravity_mps2) && m.gravity_mps2 > 0) {
     rec.gravity_mps2 = m.gravity_mps2;
     rec.gravity_source = "log metadata";
@@ -28,8 +29,10 @@ Recording read_recording(io::LogReader& log) {
   rec.gyro_lsb = m.gyro_lsb_rad_s;
   rec.accel_bits = m.accel_bits;
   rec.gyro_bits = m.gyro_bits;
-  io::LogRow row;
-  while (log.next(row)) {
+  return rec;
+}
+
+void append(Recording& rec, const io::LogMeta& m, const io::LogRow& row) {
     rec.t_s.push_back(row.t_s);
     std::array<double, 6> y;
     for (int c = 0; c < 6; ++c) y[static_cast<size_t>(c)] = row.raw[c] * (c < 3 ? m.accel_lsb_mps2 : m.gyro_lsb_rad_s);
@@ -43,13 +46,32 @@ Recording read_recording(io::LogReader& log) {
     rec.accel_clipped.push_back(ca);
     rec.clipped_samples += cg ? 1 : 0;
     rec.accel_clipped_samples += ca ? 1 : 0;
-  }
-  if (rec.t_s.size() < 10) throw PoseError("log '" + log.path() + "' has too few samples for static-pose detection");
+}
+
+void finish(Recording& rec, const io::LogMeta& m, const std::string& what) {
+  if (rec.t_s.size() < 10) throw PoseError(what + " has too few samples for static-pose detection");
   for (size_t i = 1; i < rec.t_s.size(); ++i)
     if (!(rec.t_s[i] > rec.t_s[i - 1]))
-      throw PoseError("log '" + log.path() + "': time does not increase at row " + std::to_string(i));
+      throw PoseError(what + ": time does not increase at row " + std::to_string(i));
   rec.rate_hz = m.sample_rate_hz > 0 ? m.sample_rate_hz
                                      : static_cast<double>(rec.t_s.size() - 1) / (rec.t_s.back() - rec.t_s.front());
+}
+
+}  // namespace
+
+Recording read_recording(io::LogReader& log) {
+  const std::string what = "log '" + log.path() + "'";
+  Recording rec = start(log.meta(), what);
+  io::LogRow row;
+  while (log.next(row)) append(rec, log.meta(), row);
+  finish(rec, log.meta(), what);
+  return rec;
+}
+
+Recording recording_from_rows(const io::LogMeta& meta, const std::vector<io::LogRow>& rows, const std::string& what) {
+  Recording rec = start(meta, what);
+  for (const io::LogRow& r : rows) append(rec, meta, r);
+  finish(rec, meta, what);
   return rec;
 }
 

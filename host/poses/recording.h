@@ -39,5 +39,7 @@ struct Recording {
 // Reads a whole log. Gravity: the log's gravity_mps2, else normal gravity at its latitude/height, else
 // standard gravity. Throws PoseError (no LSB, too few samples, time not increasing) or io::LogError.
 Recording read_recording(io::LogReader& log);
+// The same from rows already in memory (a fixture step's segment); what names them in errors.
+Recording recording_from_rows(const io::LogMeta& meta, const std::vector<io::LogRow>& rows, const std::string& what);
 
 }  // namespace imuforge::poses

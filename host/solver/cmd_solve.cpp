@@ -37,6 +37,7 @@ struct Args {
   bool online = false;
   poses::DetectOptions detect;
   bool explain_poses = false;
+  bool no_term_selection = false;
   std::vector<std::string> logs;
 };
 
@@ -171,6 +172,8 @@ int run_solve(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   app.add_flag("--explain-poses", a.explain_poses,
                "reference-free: print every stretch of the recording (start, end, duration, mean, verdict/reason)");
+  app.add_flag("--no-term-selection", a.no_term_selection,
+               "reference-free: keep the 9 basic accelerometer terms (no cross-validated extra catalog terms)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -221,6 +224,7 @@ int run_solve(int argc, char** argv) {
     RawRecording rec = read_recording(log);
     ReferenceFreeOptions rfo;
     rfo.detect = a.detect;
+    rfo.select_terms = !a.no_term_selection;
     if (a.explain_poses) std::printf("%s: %s", a.log.c_str(), poses::explain_table(poses::detect_poses(rec, a.detect)).c_str());
     std::vector<RawRecording> more;  // the other recordings of --log
     for (std::size_t k = 1; k < a.logs.size(); ++k) {
@@ -258,6 +262,12 @@ int run_solve(int argc, char** argv) {
                 rec.gravity_source.c_str());
     std::printf("  gravity-magnitude residual RMS: before %.4e m/s², after %.4e m/s²\n", r.gravity_rms_before,
                 r.gravity_rms_after);
+    if (r.terms_tried)
+      std::printf("  extra accelerometer terms by leave-poses-out cross-validation (%zu folds): %s; held-out RMS %.4e -> "
+                  "%.4e m/s²\n", poses::kHeldoutFolds, r.terms_added.empty() ? "none" : nlohmann::json(r.terms_added).dump().c_str(),
+                  r.heldout_rms_basic, r.heldout_rms_selected);
+    else
+      std::printf("  extra accelerometer terms: %s\n", r.terms_note.c_str());
     std::printf("  gravity-direction residual RMS across rotations: before %.4e, after %.4e (%d transitions; %d left "
                 "out: gyro clipped at the %d-bit full scale)\n", r.rotation_rms_before, r.rotation_rms_after, r.transitions_used,
                 r.transitions_clipped, rec.gyro_bits);

@@ -141,6 +141,29 @@ TriadCal triad_from_estimate(const Estimate& e, const std::string& sensor) {
   return c;
 }
 
+poses::GravityFit accel_fit_from_estimate(const Estimate& e) {
+  poses::GravityFit f;
+  for (int k = 0; k < 9; ++k) {
+    const int i = e.index_of(kAccNames[k]);
+    f.active[static_cast<std::size_t>(k)] = i >= 0;
+    if (i >= 0) f.p[k] = e.value[i];
+  }
+  for (const char* up : {"accel.misalign.xy", "accel.misalign.xz", "accel.misalign.yz"}) {
+    const int i = e.index_of(up);
+    if (i >= 0 && e.value[i] != 0.0)
+      throw SolverError(std::string("accelerometer calibration with ") + up + " != 0: not a gravity-fit gauge");
+  }
+  std::vector<double> q;
+  for (model::ParamId id : poses::gravity_candidate_terms()) {
+    const int i = e.index_of(model::param_info(id).name);
+    if (i < 0) continue;
+    f.extra.push_back(id);
+    q.push_back(e.value[i]);
+  }
+  f.q = Eigen::Map<Eigen::VectorXd>(q.data(), static_cast<long>(q.size()));
+  return f;
+}
+
 namespace {
 bool clipped_in(const RawRecording& rec, std::size_t i0, std::size_t i1) {
   if (rec.gyro_clipped.empty()) return false;
@@ -257,7 +280,24 @@ ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>&
                       std::to_string(opt.detect.min_dwell_s) + " s (--explain-poses shows what was rejected and why)");
   std::array<bool, 9> act9{};
   for (int k = 0; k < 9; ++k) act9[static_cast<size_t>(k)] = acc_active[static_cast<size_t>(k)];
-  const poses::GravityFit best = poses::fit_gravity(res.intervals, g, act9);
+  // Extra catalog terms only where they predict withheld poses better (never on in-sample gain).
+  poses::GravityFit best;
+  if (opt.select_terms) {
+    poses::TermSelection ts = poses::select_gravity_terms(res.intervals, g, act9, opt.term_select);
+    best = std::move(ts.fit);
+    for (model::ParamId id : ts.added) res.terms_added.push_back(model::param_info(id).name);
+    res.terms_tried = ts.tried;
+    res.terms_note = ts.note;
+    if (ts.tried) {
+      res.heldout_rms_basic = ts.heldout_rms.front();
+      res.heldout_rms_selected = ts.heldout_rms.back();
+    }
+  } else {
+    best = poses::fit_gravity(res.intervals, g, act9);
+    res.terms_note = "not tried: switched off";
+  }
+  res.accel_fit = best;
+  const int nx = static_cast<int>(best.extra.size());
   const auto& iv = res.intervals;
   res.gravity_rms_before = best.rms_before;
   res.gravity_rms_after = best.rms_after;
@@ -308,10 +348,10 @@ ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>&
   // The residual as a function of the gyro unknowns AND the upstream estimates it is conditioned on
   // (accelerometer parameters through the gravity directions, gyro bias through the integration).
   auto gres_at = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& pa9, const Eigen::Vector3d& bias) {
-    const TriadCal ac = accel_cal(pa9);
-    const Eigen::Matrix3d ai = ac.IM.inverse();
+    poses::GravityFit ac = best;  // with its extras
+    ac.p = pa9;
     std::vector<Eigen::Vector3d> gdir;
-    for (const auto& s : iv) gdir.push_back((ai * (s.acc - ac.b)).normalized());
+    for (const auto& s : iv) gdir.push_back(ac.apply(s.acc).normalized());
     const TriadCal c = gyro_cal(gfull(x), bias);
     const Eigen::Matrix3d inv = c.IM.inverse();
     Eigen::VectorXd e(3 * static_cast<long>(used.size()));
@@ -374,6 +414,11 @@ ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>&
   std::vector<std::pair<int, int>> src;  // (block, index in block)
   for (int k = 0; k < 9; ++k)
     if (acc_active[static_cast<size_t>(k)]) { names.push_back(kAccNames[k]); values.push_back(best.p[k]); src.emplace_back(0, k); }
+  for (int x = 0; x < nx; ++x) {
+    names.push_back(model::param_info(best.extra[static_cast<size_t>(x)]).name);
+    values.push_back(best.q[x]);
+    src.emplace_back(0, 9 + x);
+  }
   for (int j = 0; j < 3; ++j) {
     const std::string n = std::string("gyro.bias.") + kAx[j];
     if (want(n)) { names.push_back(n); values.push_back(bg[j]); src.emplace_back(1, j); }
@@ -383,8 +428,9 @@ ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>&
   const int n = static_cast<int>(names.size());
   Eigen::MatrixXd info = Eigen::MatrixXd::Zero(n, n);
   // Map each block's active index to the output index.
-  std::vector<int> acc_pos(9, -1), gyr_pos(9, -1);
+  std::vector<int> acc_pos(static_cast<size_t>(9 + nx), -1), gyr_pos(9, -1);
   for (int k = 0, a = 0; k < 9; ++k) if (acc_active[static_cast<size_t>(k)]) acc_pos[static_cast<size_t>(k)] = a++;
+  for (int x = 0; x < nx; ++x) acc_pos[static_cast<size_t>(9 + x)] = na + x;  // the extras follow in best.info
   for (int k = 0, a = 0; k < 9; ++k) if (gyro_active[static_cast<size_t>(k)]) gyr_pos[static_cast<size_t>(k)] = a++;
   for (int i = 0; i < n; ++i)
     for (int l = 0; l < n; ++l) {
@@ -402,13 +448,15 @@ ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>&
     // Propagate the upstream uncertainty into the gyro block (sequential estimate: the accelerometer
     // and bias blocks keep their own covariance).
     Eigen::MatrixXd cu = Eigen::MatrixXd::Zero(na + 3, na + 3);
-    if (na > 0) cu.topLeftCorner(na, na) = best.info.ldlt().solve(Eigen::MatrixXd::Identity(na, na));
+    // The marginal covariance of the basic accelerometer block (the extras, if any, are integrated out).
+    if (na > 0) cu.topLeftCorner(na, na) = best.info.ldlt().solve(Eigen::MatrixXd::Identity(na + nx, na + nx)).topLeftCorner(na, na);
     for (int j = 0; j < 3; ++j) cu(na + j, na + j) = bvar[j];
     const Eigen::MatrixXd dcu = dgu * cu;
     const Eigen::MatrixXd add = dcu * dgu.transpose();
     auto upos = [&](int i) {  // index of output i in u, or −1
       const auto [b, k] = src[static_cast<size_t>(i)];
-      return b == 0 ? acc_pos[static_cast<size_t>(k)] : b == 1 ? na + k : -1;
+      // The extras (k ≥ 9) are not in u: the gyro fit was linearised about the basic block only.
+      return b == 0 ? (k < 9 ? acc_pos[static_cast<size_t>(k)] : -1) : b == 1 ? na + k : -1;
     };
     for (int i = 0; i < n; ++i) {
       const auto [bi, ki] = src[static_cast<size_t>(i)];
@@ -418,7 +466,7 @@ ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>&
         const auto [bl, kl] = src[static_cast<size_t>(l)];
         if (bl == 2) {
           res.estimate.covariance(i, l) += add(gi, gyr_pos[static_cast<size_t>(kl)]);
-        } else {
+        } else if (upos(l) >= 0) {
           res.estimate.covariance(i, l) = res.estimate.covariance(l, i) = dcu(gi, upos(l));
         }
       }
@@ -462,7 +510,14 @@ nlohmann::json reference_free_summary(const ReferenceFreeResult& r, const RawRec
           {"transitions_clipped", r.transitions_clipped},
           {"gyro_bits", rec.gyro_bits},
           {"accel_bits", rec.accel_bits},
-          {"gauge_fixed_zero", r.gauge_fixed}};
+          {"gauge_fixed_zero", r.gauge_fixed},
+          {"term_selection",
+           {{"tried", r.terms_tried},
+            {"added", r.terms_added},
+            {"heldout_rms_basic_mps2", r.heldout_rms_basic},
+            {"heldout_rms_selected_mps2", r.heldout_rms_selected},
+            {"folds", poses::kHeldoutFolds},
+            {"note", r.terms_note}}}};
 }
 
 }  // namespace imuforge::solver

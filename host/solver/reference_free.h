@@ -29,6 +29,7 @@
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/poses/detect.h"
+#include "host/poses/gravity_fit.h"
 #include "host/poses/recording.h"
 #include "host/solver/estimate.h"
 
@@ -42,6 +43,10 @@ using StaticInterval = poses::Pose;
 struct ReferenceFreeOptions {
   poses::DetectOptions detect;
   int min_intervals = 9;  // the accelerometer has 9 unknowns
+  // Extra accelerometer terms of the catalog chosen by leave-poses-out cross-validation
+  // (poses::select_gravity_terms) when the model asks for all 9 basic terms and there are enough poses.
+  bool select_terms = true;
+  poses::TermSelectOptions term_select;
 };
 
 struct ReferenceFreeResult {
@@ -56,6 +61,13 @@ struct ReferenceFreeResult {
   double rotation_rms_before = 0.0; // RMS |ĝ_pred − ĝ| over pose transitions, nominal gyro (+ static bias)
   double rotation_rms_after = 0.0;
   std::array<double, 6> residual_rms{};  // per channel: static-interval scatter after calibration
+  // Term selection: the extra catalog terms added (also in estimate), the held-out |f̂|−g RMS of the 9-term
+  // fit and of the selected one, and why selection stopped or was not tried.
+  std::vector<std::string> terms_added;
+  double heldout_rms_basic = 0.0, heldout_rms_selected = 0.0;
+  bool terms_tried = false;
+  std::string terms_note;
+  poses::GravityFit accel_fit;      // the accelerometer calibration as fitted (apply() includes the extras)
   int transitions_used = 0;         // pose-to-pose transitions in the gyro fit
   int transitions_clipped = 0;      // left out: a gyro sample at full scale
 };
@@ -79,6 +91,11 @@ struct TriadCal {
   Eigen::Vector3d apply(const Eigen::Vector3d& y) const { return IM.lu().solve(y - b); }
 };
 TriadCal triad_from_estimate(const Estimate& e, const std::string& sensor);
+// The accelerometer calibration of an estimate with its extra catalog terms (scale_nonlinearity,
+// scale_asymmetry, cross_coupling) as a gravity fit, whose apply() inverts the whole model.
+// The upper misalignments (gauge-fixed at 0 in reference-free mode) are not representable: throws
+// SolverError when one is non-zero.
+poses::GravityFit accel_fit_from_estimate(const Estimate& e);
 
 // Known-angle check: integrates the calibrated gyro over the whole recording, with the gyro bias
 // re-estimated from the recording's first static interval (turn-on bias changes at every power-up).

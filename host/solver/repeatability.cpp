@@ -12,9 +12,14 @@ Repeatability repeatability(const std::vector<const RawRecording*>& recs, const 
                             const model::ModelSpec& spec, const ReferenceFreeOptions& opt) {
   if (recs.size() < 2) throw SolverError("repeatability needs at least two recordings of the unit");
   Repeatability out;
+  // Each recording alone with the basic terms only: the spreads compare the same parameters, and a
+  // single recording's poses are too few to choose extra terms on for a day-to-day comparison. The joint
+  // calibration (all poses) may add extras by cross-validation; they have no per-recording spread.
+  ReferenceFreeOptions each_opt = opt;
+  each_opt.select_terms = false;
   for (std::size_t r = 0; r < recs.size(); ++r) {
     try {
-      out.each.push_back(solve_reference_free(*recs[r], spec, opt));
+      out.each.push_back(solve_reference_free(*recs[r], spec, each_opt));
     } catch (const std::exception& e) {
       throw SolverError("recording '" + names[r] + "': " + e.what());
     }
@@ -24,6 +29,7 @@ Repeatability repeatability(const std::vector<const RawRecording*>& recs, const 
   const Estimate& j = out.joint.estimate;
   const Eigen::VectorXd js = j.sigma();
   for (std::size_t k = 0; k < j.names.size(); ++k) {
+    if (out.each.front().estimate.index_of(j.names[k]) < 0) continue;  // an extra term of the joint fit only
     ParameterSpread p;
     p.name = j.names[k];
     p.joint = j.value[static_cast<long>(k)];
@@ -56,12 +62,12 @@ Repeatability repeatability(const std::vector<const RawRecording*>& recs, const 
   out.cross_rms.resize(static_cast<long>(n), static_cast<long>(n));
   const double g = recs.front()->gravity_mps2;
   for (std::size_t a = 0; a < n; ++a) {
-    const TriadCal cal = triad_from_estimate(out.each[a].estimate, "accel");
+    const poses::GravityFit cal = accel_fit_from_estimate(out.each[a].estimate);
     for (std::size_t b = 0; b < n; ++b)
       out.cross_rms(static_cast<long>(a), static_cast<long>(b)) =
           poses::gravity_rms(out.each[b].intervals, g, [&](const Eigen::Vector3d& y) { return cal.apply(y); });
   }
-  const TriadCal jc = triad_from_estimate(j, "accel");
+  const poses::GravityFit jc = accel_fit_from_estimate(j);
   for (std::size_t b = 0; b < n; ++b)
     out.joint_rms.push_back(poses::gravity_rms(out.each[b].intervals, g, [&](const Eigen::Vector3d& y) { return jc.apply(y); }));
   out.self_min = out.cross_min = INFINITY;

@@ -5,7 +5,9 @@
 // motion, a 10× noisier axis. Plus the declared raw word width in the log.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <random>
 #include <cstdlib>
 #include <sys/wait.h>
 #include <filesystem>
@@ -389,4 +391,131 @@ TEST(FloatExport, CommandLinePreviewExplainAndTwoRecordings) {
   EXPECT_EQ(j["repeatability"]["poses"], nlohmann::json({16, 16}));
   EXPECT_EQ(j["reference_free"]["static_poses"], 32);
   EXPECT_EQ(run_cli("solve --mode fixture --log " + la + " --log " + lb + " --model " + model + " --out " + cal, out), 2);
+}
+
+// ---- Issue 17: extra catalog terms by leave-poses-out cross-validation ---------------------------------
+namespace {
+// Pose means of a sensor y = (I+M) f + b + k2∘f² + noise over n random attitudes (plain formulas, not
+// the catalog's regressors: the selection must find the term the catalog names for this physics).
+std::vector<poses::Pose> nonlinear_poses(int n, const Eigen::Vector3d& k2, double noise_mps2, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01;
+  Eigen::Matrix3d im = Eigen::Matrix3d::Identity();
+  im << 1.002, 0, 0, 0.001, 0.9985, 0, -0.0007, 0.0011, 1.001;
+  const Eigen::Vector3d b(0.08, -0.05, 0.12);
+  std::vector<poses::Pose> out;
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3d u(n01(rng), n01(rng), n01(rng));
+    const Eigen::Vector3d f = 9.80665 * u.normalized();
+    poses::Pose p;
+    p.acc = im * f + b + k2.cwiseProduct(f.cwiseAbs2()) + noise_mps2 * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
+    p.samples = 300;
+    out.push_back(p);
+  }
+  return out;
+}
+std::array<bool, 9> all9() {
+  std::array<bool, 9> a;
+  a.fill(true);
+  return a;
+}
+}  // namespace
+
+TEST(TermSelection, AQuadraticScaleNonlinearityIsChosenOnWithheldPosesAndRecovered) {
+  const Eigen::Vector3d k2(2.4e-4, -1.8e-4, 2.0e-4);  // ≈ 5 mm/s² left by the 9-term model
+  const auto ps = nonlinear_poses(36, k2, 1e-4, 5);
+  const poses::TermSelection s = poses::select_gravity_terms(ps, 9.80665, all9());
+  ASSERT_TRUE(s.tried);
+  std::vector<std::string> names;
+  for (auto id : s.added) names.push_back(model::param_info(id).name);
+  std::printf("added:");
+  for (const auto& n : names) std::printf(" %s", n.c_str());
+  std::printf("; held-out RMS %.3e -> %.3e m/s^2 (in-sample %.3e)\n", s.heldout_rms.front(), s.heldout_rms.back(), s.fit.rms_after);
+  for (const char* want : {"accel.scale_nonlinearity.x.k2", "accel.scale_nonlinearity.y.k2", "accel.scale_nonlinearity.z.k2"})
+    EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
+  EXPECT_LT(s.heldout_rms.back(), 0.2 * s.heldout_rms.front());
+  EXPECT_LT(s.fit.rms_after, 2e-4);  // the noise (1e-4) plus a little
+  for (std::size_t k = 0; k < s.fit.extra.size(); ++k) {
+    const auto& pi = model::param_info(s.fit.extra[k]);
+    if (pi.effect == model::Effect::kScaleNonlinearity && pi.power == 2)
+      EXPECT_NEAR(s.fit.q[static_cast<long>(k)], k2[pi.j], 0.1 * std::abs(k2[pi.j])) << pi.name;
+  }
+  // apply() inverts the whole model: a pose's calibrated |f| is g within the noise.
+  for (const auto& p : ps) EXPECT_NEAR(s.fit.apply(p.acc).norm(), 9.80665, 6e-4);
+}
+
+TEST(TermSelection, NothingIsAddedWithoutASystematicTermAndNothingTriedOnFewPoses) {
+  int false_adds = 0;
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    const poses::TermSelection s = poses::select_gravity_terms(nonlinear_poses(36, Eigen::Vector3d::Zero(), 1e-3, seed), 9.80665, all9());
+    ASSERT_TRUE(s.tried);
+    false_adds += static_cast<int>(s.added.size());
+  }
+  std::printf("terms added on 10 noise-only pose sets: %d\n", false_adds);
+  EXPECT_LE(false_adds, 1);
+  const poses::TermSelection few = poses::select_gravity_terms(nonlinear_poses(15, Eigen::Vector3d(2e-4, 0, 0), 1e-4, 3), 9.80665, all9());
+  EXPECT_FALSE(few.tried);
+  EXPECT_TRUE(few.added.empty());
+  EXPECT_NE(few.note.find("15 poses"), std::string::npos) << few.note;
+}
+
+TEST(TermSelection, TheSolverReportsTheAddedTermsAndTheirHeldOutGain) {
+  // A hand-placed recording (hand_placed.h) with the accelerometer's quadratic term added to its counts.
+  poses::Recording rec;
+  const handtest::Sensor s = unit();
+  handtest::generate(handtest::session(30, 4, 10, 31, true, 150, 0.8), s, 31, rec);
+  const Eigen::Vector3d k2(3e-4, 0, -2.5e-4);
+  for (auto& y : rec.y)
+    for (int j = 0; j < 3; ++j) y[static_cast<std::size_t>(j)] += k2[j] * y[static_cast<std::size_t>(j)] * y[static_cast<std::size_t>(j)];
+  const auto on = solver::solve_reference_free(rec, basic());
+  solver::ReferenceFreeOptions off;
+  off.select_terms = false;
+  const auto plain = solver::solve_reference_free(rec, basic(), off);
+  ASSERT_TRUE(on.terms_tried);
+  EXPECT_FALSE(on.terms_added.empty());
+  for (const auto& n : on.terms_added) EXPECT_GE(on.estimate.index_of(n), 0) << n;
+  EXPECT_LT(on.heldout_rms_selected, 0.5 * on.heldout_rms_basic);
+  EXPECT_LT(on.gravity_rms_after, 0.5 * plain.gravity_rms_after);
+  // The estimate carries the extras, so the calibration read back applies the same model.
+  const poses::GravityFit back = solver::accel_fit_from_estimate(on.estimate);
+  for (const auto& p : on.intervals) EXPECT_NEAR(back.apply(p.acc).norm(), on.accel_fit.apply(p.acc).norm(), 1e-9);
+  const nlohmann::json j = solver::reference_free_summary(on, rec);
+  EXPECT_EQ(j["term_selection"]["added"].size(), on.terms_added.size());
+  std::printf("added %s; held-out %.3e -> %.3e; in-sample 9 terms %.3e, selected %.3e m/s^2\n",
+              j["term_selection"]["added"].dump().c_str(), on.heldout_rms_basic, on.heldout_rms_selected,
+              plain.gravity_rms_after, on.gravity_rms_after);
+}
+
+TEST(StillPart, AFixtureDwellLosesItsRingingAndAShakenDwellIsRejectedWithAReason) {
+  // 8 s at 100 Hz: a table that rings for the first 0.8 s after "settled", then holds.
+  poses::Recording r;
+  r.rate_hz = 100;
+  r.accel_lsb = 1e-4;
+  r.gyro_lsb = 1e-5;
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> n01;
+  for (int i = 0; i < 800; ++i) {
+    const double t = i / 100.0;
+    const double ring = t < 0.8 ? 0.3 * std::exp(-t / 0.3) * std::sin(2 * M_PI * 12 * t) : 0.0;
+    r.t_s.push_back(t);
+    r.y.push_back({0.002 * n01(rng) + ring, 0.002 * n01(rng), -9.80665 + 0.002 * n01(rng), 1e-4 * n01(rng) + ring,
+                   1e-4 * n01(rng), 1e-4 * n01(rng)});
+  }
+  const poses::StillPart sp = poses::still_part(r);
+  ASSERT_FALSE(sp.rejected()) << sp.reason;
+  EXPECT_GE(sp.parts.front().first, 80u);   // the ringing is not kept
+  EXPECT_GT(sp.samples, 600u);              // the hold is
+  EXPECT_NE(sp.reason.find("kept"), std::string::npos) << sp.reason;
+  // A table that never stopped: a steady 0.5 rad/s turn for the whole dwell. Steady, so neither the noise
+  // test nor the rate about the (median) bias sees it; the attitude does, and no piece is long enough.
+  poses::Recording turning = r;
+  for (std::size_t i = 0; i < turning.y.size(); ++i) {
+    const double th = 0.5 * turning.t_s[i];
+    turning.y[i] = {0.002 * n01(rng), 9.80665 * std::sin(th), -9.80665 * std::cos(th), 0.5 + 1e-4 * n01(rng),
+                    1e-4 * n01(rng), 1e-4 * n01(rng)};
+  }
+  const poses::StillPart bad = poses::still_part(turning);
+  EXPECT_TRUE(bad.rejected());
+  EXPECT_NE(bad.reason.find("rejected"), std::string::npos) << bad.reason;
+  std::printf("ringing dwell: %s; turning dwell: %s\n", sp.reason.c_str(), bad.reason.c_str());
 }
