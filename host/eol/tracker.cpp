@@ -67,7 +67,14 @@ bool Tracker::add_segment(const io::LogMeta& meta, const std::vector<io::LogRow>
       std::vector<io::LogRow> seg;
       seg.reserve(use.size());
       for (auto* r : use) seg.push_back(*r);
-      const poses::StillPart sp = poses::still_part(poses::recording_from_rows(meta, seg, "segment '" + label + "'"));
+      poses::StillPart sp;
+      try {
+        sp = poses::still_part(poses::recording_from_rows(meta, seg, "segment '" + label + "'"));
+      } catch (const poses::PoseError& e) {  // e.g. stream times out of order: judge nothing, keep every row
+        sp.parts = {{0, use.size()}};
+        sp.samples = sp.total = use.size();
+        sp.reason = std::string("not judged: ") + e.what();
+      }
       if (sp.rejected()) {
         rejections_.push_back({segment, label, sp.reason});
         return false;

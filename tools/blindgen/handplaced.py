@@ -231,6 +231,18 @@ def sense(rng, f, w, truth):
     return decimate(ya), decimate(yg)
 
 
+def write_csv(path, a, g, fmt):
+    """t_s,ax,ay,az,gx,gy,gz at FS; returns the time column."""
+    t = np.arange(len(a)) / FS
+    os.makedirs(os.path.dirname(path) or '.', exist_ok=True)
+    line = '%.2f,' + ','.join([fmt] * 6) + '\n'
+    with open(path, 'w') as fh:
+        fh.write('t_s,ax,ay,az,gx,gy,gz\n')
+        for k in range(len(t)):
+            fh.write(line % (t[k], *a[k], *g[k]))
+    return t
+
+
 def fixture(out, seed):
     rng = np.random.default_rng(seed)
     normals = icosahedron_face_normals()
@@ -249,12 +261,7 @@ def fixture(out, seed):
     ya, yg = sense(rng, f, w, truth)
     ca = np.clip(np.round(ya / ACC_LSB), -2 ** 19, 2 ** 19 - 1).astype(np.int64)
     cg = np.clip(np.round(yg / GYR_LSB), -2 ** 15, 2 ** 15 - 1).astype(np.int64)
-    t = np.arange(len(ca)) / FS
-    os.makedirs(out, exist_ok=True)
-    with open(os.path.join(out, 'fixture.csv'), 'w') as fh:
-        fh.write('t_s,ax,ay,az,gx,gy,gz\n')
-        for k in range(len(t)):
-            fh.write('%.2f,%d,%d,%d,%d,%d,%d\n' % (t[k], *ca[k], *cg[k]))
+    t = write_csv(os.path.join(out, 'fixture.csv'), ca, cg, '%d')
     cmap = {'delimiter': ',', 'header': True, 'time': {'column': 't_s', 'unit': 's'},
             'accel': {'columns': ['ax', 'ay', 'az'], 'unit': 'counts', 'lsb': ACC_LSB},
             'gyro': {'columns': ['gx', 'gy', 'gz'], 'unit': 'counts', 'lsb': GYR_LSB},
@@ -291,12 +298,7 @@ def handheld(out, seed):
     truth['accel']['noise'] = 4e-3
     truth['gyro']['noise'] = 2e-3
     ya, yg = sense(rng, f, w, truth)
-    t = np.arange(len(ya)) / FS
-    os.makedirs(out, exist_ok=True)
-    with open(os.path.join(out, 'handheld.csv'), 'w') as fh:
-        fh.write('t_s,ax,ay,az,gx,gy,gz\n')
-        for k in range(len(t)):
-            fh.write('%.2f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n' % (t[k], *ya[k], *yg[k]))
+    t = write_csv(os.path.join(out, 'handheld.csv'), ya, yg, '%.6f')
     truth.update({'poses': len(att), 'still_spans_s': spans, 'score_spans_s': score, 'duration_s': float(t[-1]),
                   'gyro_peak_rad_s': float(np.abs(yg).max())})
     json.dump(truth, open(os.path.join(out, 'handheld.truth.json'), 'w'), indent=1)
