@@ -480,8 +480,13 @@ def check(imuforge, work, seed):
     if rf['accel_bits'] != 20 or rf['gyro_bits'] != 16:
         print('FAIL: word widths %s/%s, expected 20/16' % (rf['accel_bits'], rf['gyro_bits']))
         ok = False
+    run([imuforge, 'solve', '--mode', 'reference-free', '--log', log, '--model', model, '--out',
+         os.path.join(work, 'fixture.cal9.json'), '--no-term-selection'])
+    cal9 = json.load(open(os.path.join(work, 'fixture.cal9.json')))
     tk, tk_n = imutk(acc, G, 1000)
     spans = tr['score_spans_s']
+    print('fixture imuforge with the 9 basic terms only (--no-term-selection): %.3e m/s^2' %
+          score_rms(acc, spans, cal_apply(cal9), G)[0])
     nominal, m = score_rms(acc, spans, lambda y: y, G)
     ours, _ = score_rms(acc, spans, cal_apply(cal), G)
     floor, _ = score_rms(acc, spans, truth_apply(tr), G)
