@@ -48,7 +48,9 @@ model::ModelSpec basic() { return model::load_model_spec(IMUFORGE_SOURCE_DIR "/d
 
 void expect_calibrated(const ReferenceFreeResult& r) {
   EXPECT_EQ(r.observability.rank, r.observability.n_params);
-  EXPECT_EQ(r.estimate.names.size(), 21u);  // 24 basic − 3 gauge-fixed accel misalignments
+  // 24 basic − 3 gauge-fixed accel misalignments, plus the extra terms chosen by cross-validation (issue 17)
+  EXPECT_EQ(r.estimate.names.size(), 21u + r.terms_added.size());
+  for (const auto& t : r.terms_added) EXPECT_GE(r.estimate.index_of(t), 0) << t;
   const Eigen::VectorXd s = r.estimate.sigma();
   for (long i = 0; i < s.size(); ++i)
     EXPECT_TRUE(std::isfinite(s[i]) && s[i] > 0) << r.estimate.names[size_t(i)] << " sigma " << s[i];
