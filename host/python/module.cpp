@@ -212,6 +212,7 @@ py::object solve(const std::string& log_path, const py::object& model, const std
     solver::ReferenceFreeOptions o;
     o.detect.window_s = static_window_s;
     o.detect.min_dwell_s = static_min_s;
+    o.for_table = !table_path.empty();
     const solver::ReferenceFreeResult r = solver::solve_reference_free(rec, spec, o);
     res.estimate = r.estimate;
     res.observability = r.observability;

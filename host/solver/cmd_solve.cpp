@@ -225,6 +225,7 @@ int run_solve(int argc, char** argv) {
     ReferenceFreeOptions rfo;
     rfo.detect = a.detect;
     rfo.select_terms = !a.no_term_selection;
+    rfo.for_table = !a.table.empty();
     if (a.explain_poses) std::printf("%s: %s", a.log.c_str(), poses::explain_table(poses::detect_poses(rec, a.detect)).c_str());
     std::vector<RawRecording> more;  // the other recordings of --log
     for (std::size_t k = 1; k < a.logs.size(); ++k) {

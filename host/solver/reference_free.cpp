@@ -282,7 +282,7 @@ ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>&
   for (int k = 0; k < 9; ++k) act9[static_cast<size_t>(k)] = acc_active[static_cast<size_t>(k)];
   // Extra catalog terms only where they predict withheld poses better (never on in-sample gain).
   poses::GravityFit best;
-  if (opt.select_terms) {
+  if (opt.select_terms && !opt.for_table) {
     poses::TermSelection ts = poses::select_gravity_terms(res.intervals, g, act9, opt.term_select);
     best = std::move(ts.fit);
     for (model::ParamId id : ts.added) res.terms_added.push_back(model::param_info(id).name);
@@ -294,7 +294,8 @@ ReferenceFreeResult solve_reference_free(const std::vector<const RawRecording*>&
     }
   } else {
     best = poses::fit_gravity(res.intervals, g, act9);
-    res.terms_note = "not tried: switched off";
+    res.terms_note = opt.for_table ? "not tried: the coefficient table v1 cannot express the extra terms"
+                                   : "not tried: switched off";
   }
   res.accel_fit = best;
   const int nx = static_cast<int>(best.extra.size());

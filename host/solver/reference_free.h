@@ -47,6 +47,9 @@ struct ReferenceFreeOptions {
   // (poses::select_gravity_terms) when the model asks for all 9 basic terms and there are enough poses.
   bool select_terms = true;
   poses::TermSelectOptions term_select;
+  // A coefficient table (v1: bias, scale, misalignment and their temperature terms) will be written:
+  // it cannot express the extra terms, so none is tried (terms_note says so).
+  bool for_table = false;
 };
 
 struct ReferenceFreeResult {

@@ -479,6 +479,14 @@ TEST(TermSelection, TheSolverReportsTheAddedTermsAndTheirHeldOutGain) {
   // The estimate carries the extras, so the calibration read back applies the same model.
   const poses::GravityFit back = solver::accel_fit_from_estimate(on.estimate);
   for (const auto& p : on.intervals) EXPECT_NEAR(back.apply(p.acc).norm(), on.accel_fit.apply(p.acc).norm(), 1e-9);
+  // A coefficient table cannot hold the extras: with one requested, none is tried, and the note says why.
+  solver::ReferenceFreeOptions tbl;
+  tbl.for_table = true;
+  const auto for_table = solver::solve_reference_free(rec, basic(), tbl);
+  EXPECT_FALSE(for_table.terms_tried);
+  EXPECT_TRUE(for_table.terms_added.empty());
+  EXPECT_NE(for_table.terms_note.find("table"), std::string::npos) << for_table.terms_note;
+  EXPECT_EQ(for_table.estimate.names.size(), plain.estimate.names.size());
   const nlohmann::json j = solver::reference_free_summary(on, rec);
   EXPECT_EQ(j["term_selection"]["added"].size(), on.terms_added.size());
   std::printf("added %s; held-out %.3e -> %.3e; in-sample 9 terms %.3e, selected %.3e m/s^2\n",
