@@ -6,16 +6,77 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <set>
 
 #include "host/app/command.h"
 #include "host/diagnosis/diagnose.h"
 #include "host/diagnosis/sources.h"
+#include "host/estimator/estimator.h"
+#include "host/io/staged_file.h"
 #include "host/poses/detect.h"
 #include "host/model/sensor_model.h"
+#include "host/solver/fixture.h"
 
 namespace {
 
 using namespace imuforge;
+
+// "gyro.timing.latency_s" / "accel.bias_temp.x.t1@plateau2" -> "gyro.timing" / "accel.bias_temp".
+std::string effect_key_of(const std::string& param) {
+  const auto a = param.find('.');
+  const auto b = a == std::string::npos ? a : param.find_first_of(".@", a + 1);
+  return param.substr(0, b);
+}
+
+// The emitted model is for `imuforge solve --model` on the same log (docs/diagnosis.md, "Closed loop").
+// In fixture mode the solver reads dwell rows only (host/solver/fixture.h) and takes u̇ = 0 there (it
+// does not differentiate the reference: exact on a dwell, where the table stands or turns at a constant
+// rate), so a timing term −(λ + ε t)·u̇ carries no information and the four timing parameters would make
+// the solve rank-deficient. The diagnosis itself estimates timing from the motion between
+// dwells. So the emitted model is checked with the solver's own accumulator and the shared estimator's
+// observability analysis: an effect added by the diagnosis with a parameter the solver cannot observe on
+// this log is left out, and "_diagnosis.not_emitted" says which, why (the solver's unobservable
+// directions) and what the diagnosis estimated for it. Effects of the base model are never touched.
+void keep_solver_identifiable(nlohmann::json& mj, const std::string& log_path, const std::set<std::string>& added,
+                              const diagnosis::DiagnosisResult& r) {
+  nlohmann::json& notes = mj["_diagnosis"]["not_emitted"];
+  notes = nlohmann::json::array();
+  for (int pass = 0; pass < 2; ++pass) {
+    const model::ModelSpec spec = model::model_spec_from_json(mj);
+    io::LogReader log(log_path);
+    solver::FixtureAccumulator acc(spec, log.meta());
+    io::LogRow row;
+    while (log.next(row)) acc.add(row);
+    acc.finish();
+    const std::vector<std::string> names = acc.names();
+    const estimator::Observability obs =
+        estimator::analyse_observability(acc.normal_equations(acc.static_noise_sigma()).info, names);
+    if (obs.rank == obs.n_params) break;
+    std::set<std::string> drop;
+    for (std::size_t i = 0; i < names.size(); ++i)
+      if (obs.parameter_unobservable[i] && added.count(effect_key_of(names[i]))) drop.insert(effect_key_of(names[i]));
+    if (drop.empty()) {
+      mj["_diagnosis"]["solver_rank_deficient"] = obs.unobservable;  // the base model's own, left as given
+      break;
+    }
+    for (const std::string& key : drop) {
+      mj["effects"].erase(key);
+      nlohmann::json estimate = nlohmann::json::array();
+      for (const auto& pe : r.final_params)
+        if (effect_key_of(pe.name) == key) estimate.push_back({{"name", pe.name}, {"axis", pe.axis}, {"value", pe.value}, {"sigma", pe.sigma}});
+      nlohmann::json dirs = nlohmann::json::array();
+      for (const std::string& d : obs.unobservable)
+        if (d.find(key + ".") != std::string::npos) dirs.push_back(d);
+      notes.push_back({{"effect", key},
+                       {"reason", "unobservable for `imuforge solve` in fixture mode on this log: it uses dwell rows only "
+                                  "and takes u-dot = 0 there, so the effect's regressor is zero"},
+                       {"unobservable", dirs},
+                       {"diagnosis_estimate", estimate}});
+      std::fprintf(stderr, "imuforge diagnose: --emit-model: %s left out (not observable by the fixture solver on this log)\n",
+                   key.c_str());
+    }
+  }
+}
 
 int run_diagnose(int argc, char** argv) {
   CLI::App app{"Sim-to-real gap diagnosis: where the residual lies, which unmodelled catalog effect explains it, "
@@ -118,28 +179,45 @@ int run_diagnose(int argc, char** argv) {
       return app::kExitFailed;
     }
     if (!emit_model.empty()) {
-      // The base model file as given (or the basic model), plus every selected deterministic effect.
+      // The base model file as given (or the basic model), plus every selected deterministic effect the
+      // solver can identify on this log (keep_solver_identifiable).
       nlohmann::json mj;
       if (model_path == "basic") {
         mj = {{"format", "imuforge-model"}, {"version", 1}, {"name", "basic"}, {"T_ref_C", 25.0}, {"effects", nlohmann::json::object()}};
         for (const auto& e : base.effect_names) mj["effects"][e] = nlohmann::json::object();
       } else {
-        std::ifstream f(model_path);
-        mj = nlohmann::json::parse(f);
-        if (mj.is_object() && mj.contains("model") && mj["model"].is_object()) mj = mj["model"];
+        mj = io::read_json_file(model_path);
+        if (mj.is_object() && mj.contains("model") && mj["model"].is_object()) mj = nlohmann::json(mj["model"]);
       }
-      for (const auto& st : r.selected) mj["effects"][st.sensor + "." + st.effect] = nlohmann::json::object();
+      if (mj["effects"].is_array()) {  // ["accel.bias", ...] -> {"accel.bias": {}, ...}
+        nlohmann::json o = nlohmann::json::object();
+        for (const auto& e : mj["effects"]) o[e.get<std::string>()] = nlohmann::json::object();
+        mj["effects"] = o;
+      }
+      std::set<std::string> added;
+      for (const auto& st : r.selected) {
+        const std::string key = st.sensor + "." + st.effect;
+        if (!mj["effects"].contains(key)) added.insert(key);
+        mj["effects"][key] = nlohmann::json::object();
+      }
       mj["name"] = mj.value("name", std::string("model")) + "+diagnosis";
-      const std::string tmp = emit_model + ".tmp";
+      if (!rf && sim_path.empty()) {
+        try {
+          keep_solver_identifiable(mj, log_path, added, r);
+        } catch (const std::exception& e) {  // e.g. a model the fixture solver refuses for another reason
+          mj["_diagnosis"]["solver_check"] = std::string("not done: ") + e.what();
+        }
+      }
+      io::StagedFile staged(emit_model);  // never a partial model file
       {
-        std::ofstream o(tmp);
+        std::ofstream o(staged.path());
         o << mj.dump(2) << "\n";
         if (!o) {
           std::fprintf(stderr, "imuforge diagnose: cannot write %s\n", emit_model.c_str());
           return app::kExitFailed;
         }
       }
-      std::filesystem::rename(tmp, emit_model);  // never a partial model file
+      staged.commit();
     }
     nlohmann::json j = diagnosis::to_json(r);
     j["inputs"] = {{"log", log_path}, {"model", model_path}, {"sim", sim_path}, {"mode", rf ? "reference-free" : "fixture"}};

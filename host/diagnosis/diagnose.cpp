@@ -11,6 +11,7 @@
 #include <set>
 #include <sstream>
 
+#include "host/estimator/kfold.h"
 #include "host/model/measure.h"
 
 namespace imuforge::diagnosis {
@@ -585,134 +586,24 @@ struct AxisData {
   Eigen::VectorXd z, v;        // whitened block means of y − u, and their innovation variances
   Eigen::MatrixXd Xr;          // the same before whitening (cells, plots, signatures), with
   Eigen::VectorXd zr, vr;      // the marginal variance of each block mean
-  // Per fold and total: H = Σ x xᵀ/v, g = Σ x z / v, q = Σ z²/v, W = Σ 1/v, nb.
-  std::vector<Eigen::MatrixXd> Hk;
-  std::vector<Eigen::VectorXd> gk;
-  std::vector<double> qk, Wk;
-  std::vector<int> nbk;
-  Eigen::MatrixXd H;
-  Eigen::VectorXd g;
-  double q = 0, W = 0;
-  int nb = 0;
+  // Per fold and total, in the shared estimator core: info = Σ x xᵀ/v, rhs = Σ x z/v, cost = Σ z²/v,
+  // n_obs = blocks, weight = Σ 1/v.
+  estimator::FoldedNormalEquations ne;
 };
 
-struct Fit {
-  std::vector<int> kept;     // indices into AxisData::cols
-  std::vector<int> dropped;
-  Eigen::VectorXd theta;     // over kept
-  Eigen::MatrixXd cov;       // over kept
-  double rss = 0;            // weighted RSS on the fitted data
-};
+// The fits and held-out scores run on the estimator core shared with the solver (host/estimator):
+// fit_subset's priority-ordered scaled Cholesky, and the k-fold evaluation from per-fold statistics.
+using Fit = estimator::SubsetFit;  // kept/dropped are indices into AxisData::cols
+using estimator::HeldOut;
 
 // Fits columns `sel` (indices into cols, in priority order) on all folds except `skip` (−1 = none).
 // Columns whose information is (nearly) a combination of earlier ones are dropped, never solved.
-Fit fit_axis(const AxisData& ad, const std::vector<int>& sel, int skip) {
-  Fit f;
-  const int p = static_cast<int>(sel.size());
-  Eigen::MatrixXd H(p, p);
-  Eigen::VectorXd g(p);
-  double q = ad.q;
-  for (int i = 0; i < p; ++i) {
-    g[i] = ad.g[sel[static_cast<std::size_t>(i)]];
-    for (int j = 0; j < p; ++j) H(i, j) = ad.H(sel[static_cast<std::size_t>(i)], sel[static_cast<std::size_t>(j)]);
-  }
-  if (skip >= 0) {
-    const auto& Hs = ad.Hk[static_cast<std::size_t>(skip)];
-    const auto& gs = ad.gk[static_cast<std::size_t>(skip)];
-    for (int i = 0; i < p; ++i) {
-      g[i] -= gs[sel[static_cast<std::size_t>(i)]];
-      for (int j = 0; j < p; ++j) H(i, j) -= Hs(sel[static_cast<std::size_t>(i)], sel[static_cast<std::size_t>(j)]);
-    }
-    q -= ad.qk[static_cast<std::size_t>(skip)];
-  }
-  // Incremental Cholesky on the unit-diagonal scaled information, columns in priority order.
-  Eigen::VectorXd dscale(p);
-  for (int i = 0; i < p; ++i) dscale[i] = H(i, i) > 0 ? 1.0 / std::sqrt(H(i, i)) : 0.0;
-  Eigen::MatrixXd L = Eigen::MatrixXd::Zero(p, p);
-  std::vector<int> kept_local;
-  constexpr double kTol = 1e-9;
-  for (int c = 0; c < p; ++c) {
-    if (dscale[c] == 0.0) {
-      f.dropped.push_back(sel[static_cast<std::size_t>(c)]);
-      continue;
-    }
-    const int k = static_cast<int>(kept_local.size());
-    Eigen::VectorXd l(k);
-    for (int i = 0; i < k; ++i) {
-      const int ci = kept_local[static_cast<std::size_t>(i)];
-      double s = H(ci, c) * dscale[ci] * dscale[c];
-      for (int m = 0; m < i; ++m) s -= L(i, m) * l[m];
-      l[i] = s / L(i, i);
-    }
-    const double dd = 1.0 - l.squaredNorm();
-    if (dd < kTol) {
-      f.dropped.push_back(sel[static_cast<std::size_t>(c)]);
-      continue;
-    }
-    for (int i = 0; i < k; ++i) L(k, i) = l[i];
-    L(k, k) = std::sqrt(dd);
-    kept_local.push_back(c);
-  }
-  const int k = static_cast<int>(kept_local.size());
-  Eigen::MatrixXd Lk = L.topLeftCorner(k, k);
-  Eigen::VectorXd gs(k), ds(k);
-  for (int i = 0; i < k; ++i) {
-    ds[i] = dscale[kept_local[static_cast<std::size_t>(i)]];
-    gs[i] = g[kept_local[static_cast<std::size_t>(i)]] * ds[i];
-    f.kept.push_back(sel[static_cast<std::size_t>(kept_local[static_cast<std::size_t>(i)])]);
-  }
-  if (k > 0) {
-    auto tri = Lk.triangularView<Eigen::Lower>();
-    Eigen::VectorXd y = tri.solve(gs);
-    Eigen::VectorXd u = tri.transpose().solve(y);
-    f.theta = ds.asDiagonal() * u;
-    Eigen::MatrixXd Linv = tri.solve(Eigen::MatrixXd::Identity(k, k));
-    f.cov = ds.asDiagonal() * (Linv.transpose() * Linv) * ds.asDiagonal();
-    f.rss = q - gs.dot(u);
-  } else {
-    f.theta.resize(0);
-    f.cov.resize(0, 0);
-    f.rss = q;
-  }
-  return f;
-}
-
-// Held-out evaluation of a column set, aggregated from the fold statistics:
-//   Σ r²/v over held-out blocks = q_k − 2θᵀg_k + θᵀH_kθ,   its expectation = nb_k + tr(H_k Σ_train).
-struct HeldOut {
-  double chi2 = 0, expected = 0, W = 0;
-  int nb = 0;
-  double gap() const { return W > 0 ? (std::sqrt(std::max(chi2, 0.0)) - std::sqrt(expected)) / std::sqrt(W) : 0.0; }
-  double rms() const { return W > 0 ? std::sqrt(std::max(chi2, 0.0) / W) : 0.0; }
-  double floor() const { return W > 0 ? std::sqrt(expected / W) : 0.0; }
-};
+Fit fit_axis(const AxisData& ad, const std::vector<int>& sel, int skip) { return estimator::fit_without(ad.ne, sel, skip); }
 
 // The fit uses `fit_ad` (blocks); the withheld data are scored on `ad` (blocks, or whole segments for the gap).
 HeldOut heldout_axis(const AxisData& fit_ad, const AxisData& ad, const std::vector<int>& sel, int folds) {
-  HeldOut h;
-  for (int k = 0; k < folds; ++k) {
-    if (ad.nbk[static_cast<std::size_t>(k)] == 0) continue;
-    Fit f = fit_axis(fit_ad, sel, k);
-    const int p = static_cast<int>(f.kept.size());
-    const auto& Hk = ad.Hk[static_cast<std::size_t>(k)];
-    const auto& gk = ad.gk[static_cast<std::size_t>(k)];
-    Eigen::MatrixXd Hs(p, p);
-    Eigen::VectorXd gs(p);
-    for (int i = 0; i < p; ++i) {
-      gs[i] = gk[f.kept[static_cast<std::size_t>(i)]];
-      for (int j = 0; j < p; ++j) Hs(i, j) = Hk(f.kept[static_cast<std::size_t>(i)], f.kept[static_cast<std::size_t>(j)]);
-    }
-    double c = ad.qk[static_cast<std::size_t>(k)];
-    if (p > 0) {
-      c += -2.0 * f.theta.dot(gs) + f.theta.dot(Hs * f.theta);
-      h.expected += (Hs * f.cov).trace();
-    }
-    h.chi2 += c;
-    h.expected += ad.nbk[static_cast<std::size_t>(k)];
-    h.W += ad.Wk[static_cast<std::size_t>(k)];
-    h.nb += ad.nbk[static_cast<std::size_t>(k)];
-  }
-  return h;
+  if (folds != ad.ne.folds()) throw DiagnosisError("internal: held-out statistics built for another fold count");
+  return estimator::heldout(fit_ad.ne, ad.ne, sel);
 }
 
 // Per-block held-out residuals and predicted variances (for cells and plots).
@@ -722,7 +613,7 @@ void heldout_blocks(const AxisData& ad, const std::vector<int>& sel, int folds, 
   r.assign(static_cast<std::size_t>(B), 0.0);
   pv.assign(static_cast<std::size_t>(B), 1.0);
   for (int k = 0; k < folds; ++k) {
-    if (ad.nbk[static_cast<std::size_t>(k)] == 0) continue;
+    if (ad.ne.fold[static_cast<std::size_t>(k)].n_obs == 0) continue;
     Fit f = fit_axis(ad, sel, k);
     const int p = static_cast<int>(f.kept.size());
     for (int b = 0; b < B; ++b) {
@@ -1017,11 +908,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     ad.X.resize(B, P);
     ad.z.resize(B);
     ad.v.resize(B);
-    ad.Hk.assign(static_cast<std::size_t>(folds), Eigen::MatrixXd::Zero(P, P));
-    ad.gk.assign(static_cast<std::size_t>(folds), Eigen::VectorXd::Zero(P));
-    ad.qk.assign(static_cast<std::size_t>(folds), 0.0);
-    ad.Wk.assign(static_cast<std::size_t>(folds), 0.0);
-    ad.nbk.assign(static_cast<std::size_t>(folds), 0);
+    ad.ne.reset(folds, P);
     for (int b = 0; b < B; ++b) {
       const Block& bl = blocks[static_cast<std::size_t>(b)];
       for (int c = 0; c < P; ++c) ad.X(b, c) = bl.J[s](j, src_cols[static_cast<std::size_t>(c)]);
@@ -1056,25 +943,9 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       b0 = b1;
     }
     for (int b = 0; b < B; ++b) {
-      const auto k = static_cast<std::size_t>(blocks[static_cast<std::size_t>(b)].fold);
-      const double w = 1.0 / ad.v[b];
-      Eigen::VectorXd x = ad.X.row(b).transpose();
-      ad.Hk[k].selfadjointView<Eigen::Lower>().rankUpdate(x, w);
-      ad.gk[k] += w * ad.z[b] * x;
-      ad.qk[k] += w * ad.z[b] * ad.z[b];
-      ad.Wk[k] += w;
-      ad.nbk[k] += 1;
+      ad.ne.add_row(blocks[static_cast<std::size_t>(b)].fold, ad.X.row(b).transpose(), ad.z[b], 1.0 / ad.v[b]);
     }
-    ad.H = Eigen::MatrixXd::Zero(P, P);
-    ad.g = Eigen::VectorXd::Zero(P);
-    for (int k = 0; k < folds; ++k) {
-      ad.Hk[static_cast<std::size_t>(k)] = ad.Hk[static_cast<std::size_t>(k)].selfadjointView<Eigen::Lower>();
-      ad.H += ad.Hk[static_cast<std::size_t>(k)];
-      ad.g += ad.gk[static_cast<std::size_t>(k)];
-      ad.q += ad.qk[static_cast<std::size_t>(k)];
-      ad.W += ad.Wk[static_cast<std::size_t>(k)];
-      ad.nb += ad.nbk[static_cast<std::size_t>(k)];
-    }
+    ad.ne.finish();
   }
 
   // ---- The same design aggregated per segment (unit): the gap is scored on withheld whole segments, whose
@@ -1094,11 +965,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       au.X = Eigen::MatrixXd::Zero(U, P);
       au.z = Eigen::VectorXd::Zero(U);
       au.v = Eigen::VectorXd::Zero(U);
-      au.Hk.assign(static_cast<std::size_t>(folds), Eigen::MatrixXd::Zero(P, P));
-      au.gk.assign(static_cast<std::size_t>(folds), Eigen::VectorXd::Zero(P));
-      au.qk.assign(static_cast<std::size_t>(folds), 0.0);
-      au.Wk.assign(static_cast<std::size_t>(folds), 0.0);
-      au.nbk.assign(static_cast<std::size_t>(folds), 0);
+      au.ne.reset(folds, P);
       int u = 0;
       for (const auto& [unit_id, bl] : unit_blocks) {
         double n = 0;
@@ -1122,16 +989,10 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
                                     static_cast<double>(x2.n) / p0.fs, b == b2, t_start, R.rw_prior_var[static_cast<std::size_t>(a)]);
           }
         au.v[u] = std::max(var, 1e-300);
-        const auto k = static_cast<std::size_t>(blocks[static_cast<std::size_t>(bl.front())].fold);
-        const double w = 1.0 / au.v[u];
-        Eigen::VectorXd x = au.X.row(u).transpose();
-        au.Hk[k] += w * x * x.transpose();
-        au.gk[k] += w * au.z[u] * x;
-        au.qk[k] += w * au.z[u] * au.z[u];
-        au.Wk[k] += w;
-        au.nbk[k] += 1;
+        au.ne.add_row(blocks[static_cast<std::size_t>(bl.front())].fold, au.X.row(u).transpose(), au.z[u], 1.0 / au.v[u]);
         ++u;
       }
+      au.ne.finish();
     }
   }
 
@@ -1201,7 +1062,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       dof += extra;
       lr += fc.rss - fa.rss;
       rss_aug += fa.rss;
-      n_obs += ad.nb;
+      n_obs += static_cast<int>(ad.ne.total.n_obs);
       p_aug += static_cast<int>(fa.kept.size());
       HeldOut ha = heldout_axis(ad, axu[static_cast<std::size_t>(a)], sel, folds);
       HeldOut hc = heldout_axis(ad, axu[static_cast<std::size_t>(a)], sel0, folds);

@@ -1,0 +1,51 @@
+// K-fold held-out evaluation on the information form (estimator.h): the statistics of each fold are
+// kept apart, so the fit without fold k is total − fold k (no second pass over the data), and the
+// withheld fold is scored from its own sufficient statistics:
+//   Σ r²/v over fold k = c_k − 2 θᵀ g_k + θᵀ H_k θ,   its expectation = n_k + tr(H_k Σ_train)
+// (θ, Σ_train from the fit without fold k). Used by the diagnosis for every candidate and per-fold fit;
+// any estimator (solver or diagnosis) that withholds data goes through it.
+#pragma once
+
+#include <vector>
+
+#include "host/estimator/estimator.h"
+
+namespace imuforge::estimator {
+
+struct FoldedNormalEquations {
+  std::vector<NormalEquations> fold;  // per fold (n_obs counts its rows)
+  std::vector<double> weight;         // per fold Σ w (the gap's denominator: a weighted mean of r²)
+  NormalEquations total;              // Σ over folds (finish())
+
+  FoldedNormalEquations() = default;
+  FoldedNormalEquations(int folds, int n_params) { reset(folds, n_params); }
+  void reset(int folds, int n_params);
+  int folds() const { return static_cast<int>(fold.size()); }
+  // One whitened row of fold k (lower triangle only until finish()).
+  void add_row(int k, const Eigen::Ref<const Eigen::VectorXd>& x, double r, double w);
+  // Symmetrizes every fold and forms the total. Call once, after the last add_row.
+  void finish();
+  double total_weight() const;
+};
+
+// The held-out score of a column set summed over the withheld folds.
+struct HeldOut {
+  double chi2 = 0, expected = 0, W = 0;
+  int nb = 0;
+  // sqrt(weighted mean of squared held-out residuals) − the same for their predicted variance, units of r.
+  double gap() const;
+  double rms() const;    // sqrt(chi2 / W)
+  double floor() const;  // sqrt(expected / W)
+};
+
+// For every fold k that holds rows in `score`: fits the columns `sel` (priority order, fit_subset) on
+// `fit` without fold k and scores them on `score`'s fold k. `fit` and `score` share folds and columns;
+// they may differ in granularity (e.g. fitted on blocks, scored on whole segments).
+HeldOut heldout(const FoldedNormalEquations& fit, const FoldedNormalEquations& score, const std::vector<int>& sel,
+                double drop_tol = kDefaultDropTolerance);
+
+// The fit of `sel` without fold k (k < 0: on all data).
+SubsetFit fit_without(const FoldedNormalEquations& fne, const std::vector<int>& sel, int k,
+                      double drop_tol = kDefaultDropTolerance);
+
+}  // namespace imuforge::estimator

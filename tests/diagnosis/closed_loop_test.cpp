@@ -1,0 +1,148 @@
+// The closed loop (issue 12, item 6; docs/diagnosis.md "Closed loop"): `imuforge diagnose --emit-model`
+// writes the base model plus what it selected; `imuforge solve --model` on the same log then leaves a
+// residual consistent with the diagnosis's held-out figure after selection.
+//
+// What is compared, per axis: the systematic part of the residual, i.e. the residual RMS with the noise
+// floor taken out in quadrature.
+//   diagnosis: s_d = √(max(heldout_rms² − noise_floor², 0)) of gap_before / gap_after (segment means,
+//              held out, docs/diagnosis.md "Gap");
+//   solver:    s_s = √(max(residual_rms² − noise_sigma², 0)) from cal.json (dwell samples, in sample).
+// A steady effect shifts a segment's mean and each of its samples alike, so both estimate the same RMS
+// of the unexplained systematic error. They weight segments differently (inverse variance vs samples)
+// and one is held out, the other in sample, so they agree only to a fraction of the gap before: the
+// tolerance is 20 % of the larger before-figure plus 3 noise floors of the diagnosis (the scatter of a
+// held-out RMS over a few tens of segments). After the loop both must agree to within it on every axis;
+// on the axes of the solvable effects both must see the gap before and see it closed.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+#include "tests/diagnosis/sim_helpers.h"
+
+namespace fs = std::filesystem;
+using namespace diagtest;
+
+namespace {
+
+int run(const std::string& args, const fs::path& log) {
+  const std::string cmd = std::string(IMUFORGE_BIN) + " " + args + " > " + log.string() + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+json read(const fs::path& p) {
+  std::ifstream f(p);
+  return json::parse(f);
+}
+
+double systematic(double rms, double floor) { return std::sqrt(std::max(rms * rms - floor * floor, 0.0)); }
+
+const char* kAxes[6] = {"accel.x", "accel.y", "accel.z", "gyro.x", "gyro.y", "gyro.z"};
+
+}  // namespace
+
+TEST(DiagnosisClosedLoop, EmittedModelSolvesToTheDiagnosedGap) {
+  const fs::path dir = fs::temp_directory_path() / ("imuforge-closed-loop-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  // Three effects beyond the basic model: two the fixture solver can estimate, and a gyro latency, which
+  // it cannot (dwell rows only: u̇ = 0) and which the emitted model must therefore leave out.
+  // 50 Hz: at 10 Hz the linear timing term, with u̇ from neighbouring samples, cannot follow the table's
+  // accelerations and the diagnosis leaves the gyro unexplained.
+  const json sensor = base_sensor(false, {{"gyro.g_sensitivity", {{"yz", 3e-4}}},
+                                          {"accel.scale_asymmetry", {{"x", 5e-3}}},
+                                          {"gyro.timing", {{"latency_s", 0.002}}}});
+  // Without the sine steps: the fixture solver takes u̇ = 0 on every row it uses (it does not
+  // differentiate the reference), which is exact on dwells but not inside a sine, where a latency would
+  // stay in its residual (docs/diagnosis.md, "Closed loop").
+  json campaign = rich_campaign({25.0}, 50.0);
+  for (auto& ph : campaign["phases"]) {
+    json steps = json::array();
+    for (const auto& st : ph["steps"])
+      if (st["type"] != "sine") steps.push_back(st);
+    ph["steps"] = steps;
+  }
+  {
+    std::ofstream(dir / "campaign.json") << campaign.dump(1);
+    std::ofstream(dir / "sensor.json") << sensor.dump(1);
+  }
+  const std::string log = (dir / "run.bin").string();
+  ASSERT_EQ(run("simulate --campaign " + (dir / "campaign.json").string() + " --sensor " + (dir / "sensor.json").string() +
+                    " --seed 7 --out " + log,
+                dir / "sim.txt"),
+            0);
+  const std::string base = std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/model-basic.json";
+  const fs::path ext = dir / "extended.json";
+  ASSERT_EQ(run("diagnose --log " + log + " --model " + base + " --out " + (dir / "diag").string() + " --emit-model " +
+                    ext.string(),
+                dir / "diag.txt"),
+            0);
+  const json d = read(dir / "diag" / "diagnosis.json");
+  std::set<std::string> selected;
+  for (const auto& s : d["selected"]) selected.insert(s["sensor"].get<std::string>() + "." + s["effect"].get<std::string>());
+  for (const char* e : {"gyro.g_sensitivity", "accel.scale_asymmetry", "gyro.timing"}) EXPECT_TRUE(selected.count(e)) << e;
+
+  // The emitted model: base + selected, minus what the fixture solver cannot observe, which is named.
+  const json m = read(ext);
+  for (const char* e : {"accel.bias", "accel.scale", "accel.misalign", "gyro.bias", "gyro.scale", "gyro.misalign"})
+    EXPECT_TRUE(m["effects"].contains(e)) << e;
+  for (const auto& e : selected)
+    if (e != "gyro.timing") EXPECT_TRUE(m["effects"].contains(e)) << e;
+  EXPECT_FALSE(m["effects"].contains("gyro.timing"));
+  ASSERT_TRUE(m.contains("_diagnosis"));
+  bool named = false;
+  for (const auto& n : m["_diagnosis"]["not_emitted"])
+    if (n["effect"] == "gyro.timing") {
+      named = true;
+      EXPECT_NE(n["unobservable"].dump().find("gyro.timing.latency_s"), std::string::npos) << n.dump();
+      EXPECT_FALSE(n["diagnosis_estimate"].empty());
+    }
+  EXPECT_TRUE(named) << m["_diagnosis"].dump();
+
+  // With the timing term in, the fixture solve is rank-deficient and says which directions: why it is
+  // left out (the emitted model must not be the thing that fails).
+  {
+    json with_timing = m;
+    with_timing["effects"]["gyro.timing"] = json::object();
+    std::ofstream(dir / "with_timing.json") << with_timing.dump(1);
+  }
+  EXPECT_EQ(run("solve --log " + log + " --model " + (dir / "with_timing.json").string() + " --out " +
+                    (dir / "cal_t.json").string(),
+                dir / "solve_t.txt"),
+            1);
+  EXPECT_FALSE(fs::exists(dir / "cal_t.json"));
+  {
+    std::ifstream f(dir / "solve_t.txt");
+    const std::string txt((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    EXPECT_NE(txt.find("rank-deficient"), std::string::npos) << txt;
+    EXPECT_NE(txt.find("gyro.timing.latency_s"), std::string::npos) << txt;
+  }
+
+  ASSERT_EQ(run("solve --log " + log + " --model " + base + " --out " + (dir / "cal_base.json").string(), dir / "solve_b.txt"), 0);
+  ASSERT_EQ(run("solve --log " + log + " --model " + ext.string() + " --out " + (dir / "cal_ext.json").string(), dir / "solve_e.txt"), 0);
+  const json cb = read(dir / "cal_base.json"), ce = read(dir / "cal_ext.json");
+  for (int a = 0; a < 6; ++a) {
+    const std::string ax = kAxes[a];
+    const double sd0 = systematic(d["gap_before"][ax]["heldout_rms"], d["gap_before"][ax]["noise_floor"]);
+    const double sd1 = systematic(d["gap_after"][ax]["heldout_rms"], d["gap_after"][ax]["noise_floor"]);
+    const double ss0 = systematic(cb["residual_rms"][ax], cb["noise_sigma"][ax]);
+    const double ss1 = systematic(ce["residual_rms"][ax], ce["noise_sigma"][ax]);
+    const double tol = 0.2 * std::max(sd0, ss0) + 3.0 * d["gap_after"][ax]["noise_floor"].get<double>();
+    std::printf("%-8s systematic RMS  before: diagnosis %.3e solve %.3e   after: diagnosis %.3e solve %.3e   tol %.3e\n",
+                ax.c_str(), sd0, ss0, sd1, ss1, tol);
+    EXPECT_LE(std::fabs(ss1 - sd1), tol) << ax;
+    // accel.x (asymmetry) and gyro.y (g-sensitivity yz) carry the solvable effects: both see the gap
+    // before and both see it closed to under a quarter. (The latency acts only while the table moves,
+    // which the diagnosis scores and the fixture solver does not read: no "before" figure to compare.)
+    if (a == 0 || a == 4) {
+      EXPECT_GT(ss0, tol) << ax;
+      EXPECT_LT(ss1, 0.25 * ss0) << ax;
+      EXPECT_LT(sd1, 0.25 * sd0) << ax;
+    }
+  }
+  if (!std::getenv("KEEP")) fs::remove_all(dir);
+}

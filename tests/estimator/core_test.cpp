@@ -1,0 +1,175 @@
+// The estimator core shared by the solver and the diagnosis (host/estimator).
+#include <gtest/gtest.h>
+
+#include <random>
+#include <type_traits>
+
+#include "host/estimator/estimator.h"
+#include "host/estimator/kfold.h"
+#include "host/solver/estimate.h"
+
+using namespace imuforge::estimator;
+
+// The solver's names are the core's (one estimator, not two that agree today).
+static_assert(std::is_same_v<imuforge::solver::NormalEquations, NormalEquations>);
+static_assert(std::is_same_v<imuforge::solver::SolverError, EstimatorError>);
+static_assert(std::is_same_v<imuforge::solver::Estimate, Estimate>);
+
+namespace {
+
+// A weighted problem with rows J (m × n), targets r and weights w.
+struct Problem {
+  Eigen::MatrixXd J;
+  Eigen::VectorXd r, w;
+  NormalEquations ne() const {
+    NormalEquations e(static_cast<int>(J.cols()));
+    for (int i = 0; i < J.rows(); ++i) e.add_row(J.row(i).transpose(), r[i], w[i]);
+    return e;
+  }
+  double cost(const Eigen::VectorXd& th) const {
+    return (w.asDiagonal() * (r - J * th).cwiseAbs2()).sum();
+  }
+};
+
+Problem random_problem(int m, int n, unsigned seed, const Eigen::VectorXd& truth, double noise) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01;
+  std::uniform_real_distribution<double> u(0.5, 4.0);
+  Problem p;
+  p.J.resize(m, n);
+  p.r.resize(m);
+  p.w.resize(m);
+  for (int i = 0; i < m; ++i) {
+    for (int k = 0; k < n; ++k) p.J(i, k) = n01(rng) * std::pow(10.0, k % 3 - 1);  // mixed scales
+    p.w[i] = u(rng);
+    p.r[i] = p.J.row(i).dot(truth) + noise * n01(rng) / std::sqrt(p.w[i]);
+  }
+  return p;
+}
+
+}  // namespace
+
+TEST(EstimatorCore, NoiseFreeProblemIsSolvedExactly) {
+  Eigen::VectorXd truth(5);
+  truth << 1.5, -0.25, 3e-3, 42.0, -7.0;
+  const Problem p = random_problem(60, 5, 7, truth, 0.0);
+  const NormalEquations ne = p.ne();
+  const std::vector<std::string> names{"a", "b", "c", "d", "e"};
+  Observability obs;
+  const Estimate e = solve_normal_equations(ne, names, &obs);
+  EXPECT_EQ(obs.rank, 5);
+  EXPECT_LT((e.value - truth).cwiseAbs().maxCoeff(), 1e-9 * truth.cwiseAbs().maxCoeff());
+  // Covariance = H⁻¹.
+  EXPECT_LT((ne.info * e.covariance - Eigen::MatrixXd::Identity(5, 5)).cwiseAbs().maxCoeff(), 1e-9);
+  // The subset solve (the diagnosis's path) on every column is the same estimate.
+  const SubsetFit f = fit_subset(ne, {0, 1, 2, 3, 4});
+  ASSERT_EQ(f.kept.size(), 5u);
+  EXPECT_TRUE(f.dropped.empty());
+  EXPECT_LT((f.theta - truth).cwiseAbs().maxCoeff(), 1e-9 * truth.cwiseAbs().maxCoeff());
+  EXPECT_LT((f.cov - e.covariance).cwiseAbs().maxCoeff(), 1e-9 * e.covariance.cwiseAbs().maxCoeff());
+  EXPECT_NEAR(f.rss, 0.0, 1e-9 * ne.cost);
+}
+
+TEST(EstimatorCore, EstimateIsTheMinimumOfTheCostByFiniteDifferences) {
+  Eigen::VectorXd truth(4);
+  truth << 0.3, -1.2, 0.05, 2.0;
+  const Problem p = random_problem(200, 4, 11, truth, 1.0);
+  const NormalEquations ne = p.ne();
+  const Estimate e = solve_normal_equations(ne, {"a", "b", "c", "d"});
+  const SubsetFit f = fit_subset(ne, {0, 1, 2, 3});
+  // rss is the cost at the estimate.
+  EXPECT_NEAR(f.rss, p.cost(e.value), 1e-9 * p.cost(e.value));
+  EXPECT_NEAR(ne.cost, p.cost(Eigen::VectorXd::Zero(4)), 1e-9 * ne.cost);
+  for (int k = 0; k < 4; ++k) {
+    const double h = 1e-3 * e.sigma()[k];
+    Eigen::VectorXd tp = e.value, tm = e.value;
+    tp[k] += h;
+    tm[k] -= h;
+    const double c0 = p.cost(e.value), cp = p.cost(tp), cm = p.cost(tm);
+    // Gradient zero at the minimum: the central difference is small against the curvature scale 2 H_kk h.
+    EXPECT_LT(std::abs(cp - cm) / (2 * h), 1e-5 * 2 * ne.info(k, k) * e.sigma()[k]) << k;
+    // Curvature 2 H_kk (the information is the half-Hessian of the cost).
+    EXPECT_NEAR((cp - 2 * c0 + cm) / (h * h), 2 * ne.info(k, k), 1e-4 * 2 * ne.info(k, k)) << k;
+  }
+}
+
+TEST(EstimatorCore, RankDeficientProblemIsReportedNeverSolved) {
+  // Columns 1 and 2 only ever appear as their sum.
+  NormalEquations ne(3);
+  for (int i = 0; i < 20; ++i) ne.add_row(Eigen::Vector3d(0.1 * i, 1.0, 1.0), 0.5 + 0.1 * i, 2.0);
+  const std::vector<std::string> names{"scale", "bias_a", "bias_b"};
+  const Observability obs = analyse_observability(ne.info, names);
+  EXPECT_EQ(obs.rank, 2);
+  ASSERT_EQ(obs.unobservable.size(), 1u);
+  EXPECT_NE(obs.unobservable[0].find("bias_a"), std::string::npos);
+  EXPECT_NE(obs.unobservable[0].find("bias_b"), std::string::npos);
+  EXPECT_THROW(solve_normal_equations(ne, names), EstimatorError);
+  EXPECT_THROW(covariance_from_information(ne.info, names), EstimatorError);
+  try {
+    solve_normal_equations(ne, names);
+  } catch (const EstimatorError& e) {
+    EXPECT_NE(std::string(e.what()).find("rank-deficient"), std::string::npos) << e.what();
+  }
+  // The subset solve keeps the first of the two (priority order) and reports the second.
+  const SubsetFit f = fit_subset(ne, {0, 1, 2});
+  EXPECT_EQ(f.kept, (std::vector<int>{0, 1}));
+  EXPECT_EQ(f.dropped, (std::vector<int>{2}));
+  const SubsetFit g = fit_subset(ne, {2, 0, 1});
+  EXPECT_EQ(g.kept, (std::vector<int>{2, 0}));
+  EXPECT_EQ(g.dropped, (std::vector<int>{1}));
+  // A column without information is dropped too.
+  NormalEquations z(2);
+  for (int i = 0; i < 5; ++i) z.add_row(Eigen::Vector2d(1.0, 0.0), 1.0, 1.0);
+  EXPECT_EQ(fit_subset(z, {0, 1}).dropped, (std::vector<int>{1}));
+  EXPECT_THROW(solve_normal_equations(z, {"a", "b"}), EstimatorError);
+}
+
+TEST(EstimatorCore, KFoldHeldOutMatchesABruteForceRefit) {
+  Eigen::VectorXd truth(3);
+  truth << 1.0, -0.5, 0.2;
+  const Problem p = random_problem(90, 3, 5, truth, 1.0);
+  const int K = 4;
+  FoldedNormalEquations fne(K, 3);
+  for (int i = 0; i < p.J.rows(); ++i) fne.add_row(i % K, p.J.row(i).transpose(), p.r[i], p.w[i]);
+  fne.finish();
+  const NormalEquations all = p.ne();
+  EXPECT_LT((fne.total.info - all.info).cwiseAbs().maxCoeff(), 1e-9 * all.info.cwiseAbs().maxCoeff());
+  EXPECT_EQ(fne.total.n_obs, all.n_obs);
+  for (const std::vector<int>& sel : {std::vector<int>{0, 1, 2}, std::vector<int>{0, 2}}) {
+    double chi2 = 0, expected = 0, W = 0;
+    for (int k = 0; k < K; ++k) {
+      // Refit on the rows of the other folds, directly from the rows.
+      const int m = static_cast<int>(p.J.rows());
+      Eigen::MatrixXd A(m, static_cast<int>(sel.size()));
+      for (int c = 0; c < A.cols(); ++c) A.col(c) = p.J.col(sel[static_cast<size_t>(c)]);
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(A.cols(), A.cols());
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(A.cols());
+      for (int i = 0; i < m; ++i)
+        if (i % K != k) {
+          H += p.w[i] * A.row(i).transpose() * A.row(i);
+          g += p.w[i] * p.r[i] * A.row(i).transpose();
+        }
+      const Eigen::MatrixXd S = H.inverse();
+      const Eigen::VectorXd th = S * g;
+      for (int i = 0; i < m; ++i)
+        if (i % K == k) {
+          const double res = p.r[i] - A.row(i).dot(th);
+          chi2 += p.w[i] * res * res;
+          expected += 1.0 + p.w[i] * A.row(i).dot(S * A.row(i).transpose());
+          W += p.w[i];
+        }
+    }
+    const HeldOut h = heldout(fne, fne, sel);
+    EXPECT_NEAR(h.chi2, chi2, 1e-9 * chi2);
+    EXPECT_NEAR(h.expected, expected, 1e-9 * expected);
+    EXPECT_NEAR(h.W, W, 1e-12 * W);
+    EXPECT_EQ(h.nb, 90);
+    EXPECT_NEAR(h.rms(), std::sqrt(chi2 / W), 1e-9);
+  }
+  // A fold without rows in the scored statistics is skipped, not scored as zero.
+  FoldedNormalEquations sparse(K, 3);
+  sparse.add_row(1, p.J.row(0).transpose(), p.r[0], p.w[0]);
+  sparse.finish();
+  EXPECT_EQ(heldout(fne, sparse, {0, 1, 2}).nb, 1);
+  EXPECT_THROW(heldout(fne, FoldedNormalEquations(K + 1, 3), {0}), EstimatorError);
+}
