@@ -28,8 +28,8 @@ int main(int argc, char** argv) {
   app.add_option("--key-hex", key_hex, "device HMAC key, 64 hex digits (default: the dev key of the serial)");
   app.add_option("--flash-file", cfg.flash_file, "persist the simulated flash in this file");
   app.add_option("--duration-s", duration_s, "exit after this many seconds (0: until SIGINT/SIGTERM)");
-  app.add_option("--max-catch-up", cfg.max_catch_up_samples,
-                 "samples sent at once after a stall before the node skips (default 5000)");
+  app.add_option("--fifo-depth", cfg.fifo_depth_samples,
+                 "depth of the node's sample FIFO: samples kept while the node runs late (default 5000)");
   unsigned bs = cfg.isotp_block_size;
   app.add_option("--isotp-bs", bs, "ISO-TP block size announced to the host")->check(CLI::Range(0, 255));
   try {
