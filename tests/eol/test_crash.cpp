@@ -26,12 +26,14 @@
 #include <random>
 #include <set>
 #include <thread>
+#include <vector>
 
 #include "host/eol/journal.h"
 #include "host/io/log.h"
 #include "host/eol/runner.h"
 #include "host/records/store.h"
 #include "tests/eol/fake_world.h"
+#include "tests/eol/pg_server.h"
 
 using namespace imuforge;
 using namespace imuforge::eol;
@@ -284,3 +286,138 @@ TEST(Crash, SigkillAtRandomPointsThenResumeEqualsUninterrupted) {
   ::munmap(mem, sizeof(eoltest::LabState));
   if (!std::getenv("EOL_KEEP")) fs::remove_all(d);
 }
+
+// A PostgreSQL connection dropped in the middle of writing the record (issue 16), two ways: the backend
+// terminated from a second connection (pg_terminate_backend), and the server stopped and started again.
+// A one-shot trigger holds the insert of the 4th parameter row (pg_sleep) so the drop lands inside the
+// record's transaction, deterministically. The run must fail as a peer failure with nothing written
+// (the transaction is rolled back), and `--resume` must leave exactly one record, under the id journaled
+// before the drop, with the uninterrupted run's parameters (within σ/10) and no row twice.
+namespace {
+
+struct InProcessRun {
+  RunResult res;
+  std::string error;
+};
+
+InProcessRun run_in_process(const RunOptions& o, eoltest::FakeWorld& w, eoltest::FakeDevice& dev) {
+  InProcessRun out;
+  try {
+    eoltest::FakeBench b(w);
+    eoltest::FakeTableOps t;
+    Runner r(o, b, dev, t);
+    out.res = r.run();
+  } catch (const std::exception& e) {
+    out.error = e.what();
+  }
+  return out;
+}
+
+void pg_drop_mid_write(bool stop_server) {
+  imuforge::testing::PgServer pg;
+  const fs::path d = fs::temp_directory_path() / ("imuforge-pgdrop-" + records::new_record_id());
+  fs::create_directories(d);
+  std::ofstream(d / "campaign.json") << kCampaign;
+  std::ofstream(d / "model.json") << kModel;
+  std::ofstream(d / "station.json") << kStation;
+  auto opts = [&](const std::string& name, const std::string& db) {
+    RunOptions o;
+    o.out_dir = (d / name).string();
+    o.serial = "SN-42";
+    o.campaign_path = (d / "campaign.json").string();
+    o.station_path = (d / "station.json").string();
+    o.db = db;
+    o.early_stop = false;
+    o.progress = nullptr;
+    return o;
+  };
+  // The uninterrupted reference (SQLite: the back end does not change the record's content).
+  eoltest::FakeWorld wref;
+  wref.noise_per_stream = true;
+  eoltest::FakeDevice dref(wref, "SN-42");
+  const InProcessRun ref = run_in_process(opts("ref", (d / "ref.db").string()), wref, dref);
+  ASSERT_TRUE(ref.error.empty()) << ref.error;
+  const Eigen::VectorXd ref_sigma = ref.res.estimate.sigma();
+
+  records::open_store(pg.url())->ensure_schema();
+  pg.psql(
+      "CREATE TABLE drop_once (armed BOOLEAN NOT NULL);\n"
+      "INSERT INTO drop_once VALUES (true);\n"
+      "CREATE FUNCTION hold_mid_write() RETURNS trigger LANGUAGE plpgsql AS $$\n"
+      "BEGIN\n"
+      "  IF NEW.ord = 3 AND (SELECT armed FROM drop_once) THEN PERFORM pg_sleep(120); END IF;\n"
+      "  RETURN NEW;\n"
+      "END $$;\n"
+      "CREATE TRIGGER hold BEFORE INSERT ON calibration_parameter FOR EACH ROW EXECUTE FUNCTION hold_mid_write();\n");
+
+  eoltest::FakeWorld w;
+  w.noise_per_stream = true;
+  eoltest::FakeDevice dev(w, "SN-42");
+  const RunOptions o = opts("pg", pg.url());
+  InProcessRun first;
+  std::thread runner([&] { first = run_in_process(o, w, dev); });
+  // Wait for the record's insert to be held by the trigger, then drop its connection.
+  bool held = false;
+  for (int i = 0; i < 3000 && !held; ++i) {
+    held = pg.psql("SELECT count(*) FROM pg_stat_activity WHERE wait_event = 'PgSleep'") == "1";
+    if (!held) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  if (!held) {
+    runner.join();
+    FAIL() << "the record insert never reached the held row; first run: " << first.error;
+  }
+  if (stop_server) {
+    pg.stop("fast");  // terminates the backend, rolls its transaction back, shuts down
+  } else {
+    EXPECT_EQ(pg.psql("SELECT count(*) FROM pg_stat_activity WHERE wait_event = 'PgSleep' AND "
+                      "pg_terminate_backend(pid)"),
+              "1");
+  }
+  runner.join();
+  EXPECT_NE(first.error.find("records:"), std::string::npos) << "expected a peer failure, got: '" << first.error << "'";
+  if (stop_server) pg.start();
+  // Nothing of the record was written: the transaction was rolled back with the connection.
+  EXPECT_EQ(pg.psql("SELECT count(*) FROM calibration WHERE serial = 'SN-42'"), "0");
+  EXPECT_EQ(pg.psql("SELECT count(*) FROM calibration_parameter"), "0");
+  std::string journaled_id;
+  for (const auto& e : read_journal(o.out_dir + "/journal.log").entries)
+    if (e["type"] == "recording") journaled_id = e.value("id", "");
+  EXPECT_FALSE(journaled_id.empty()) << "the record id is journaled before the insert";
+
+  pg.psql("UPDATE drop_once SET armed = false");
+  RunOptions ro = o;
+  ro.resume = true;
+  const InProcessRun second = run_in_process(ro, w, dev);
+  ASSERT_TRUE(second.error.empty()) << second.error;
+  auto store = records::open_store(pg.url());
+  const auto found = store->find_by_serial("SN-42");
+  ASSERT_EQ(found.size(), 1u) << "exactly one record after the resume";
+  EXPECT_EQ(found[0].id, journaled_id);
+  EXPECT_EQ(pg.psql("SELECT count(*) FROM calibration"), "1");
+  const records::CalibrationRecord rec = store->get(found[0].id);
+  const auto& names = ref.res.estimate.names;
+  ASSERT_EQ(rec.parameters.size(), ref.res.record.parameters.size()) << "a parameter row missing or twice";
+  EXPECT_EQ(pg.psql("SELECT count(*) - count(DISTINCT ord) FROM calibration_parameter"), "0");
+  for (std::size_t i = 0; i < rec.parameters.size(); ++i) {
+    EXPECT_EQ(rec.parameters[i].name, ref.res.record.parameters[i].name);
+  }
+  // The estimate behind the record: the resumed run's against the uninterrupted run's, within σ/10.
+  ASSERT_EQ(second.res.estimate.names, names);
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const double ratio = std::fabs(second.res.estimate.value[static_cast<Eigen::Index>(i)] -
+                                   ref.res.estimate.value[static_cast<Eigen::Index>(i)]) /
+                         ref_sigma[static_cast<Eigen::Index>(i)];
+    EXPECT_LT(ratio, 0.1) << names[i] << " differs by " << ratio << " σ";
+  }
+  for (std::size_t i = 0; i < rec.parameters.size(); ++i) {
+    const auto& a = rec.parameters[i];
+    const auto& b = ref.res.record.parameters[i];
+    EXPECT_LE(std::fabs(a.value - b.value), 0.1 * b.sigma) << a.name << " (record row)";
+  }
+  if (!std::getenv("EOL_KEEP")) fs::remove_all(d);
+}
+
+}  // namespace
+
+TEST(CrashPostgres, BackendTerminatedMidRecordThenResume) { pg_drop_mid_write(false); }
+TEST(CrashPostgres, ServerStoppedMidRecordThenResume) { pg_drop_mid_write(true); }
