@@ -66,9 +66,9 @@ int main(int argc, char** argv) {
     imu.stop();
     const auto k = imu.counters();
     std::fprintf(stderr,
-                 "imuforge-vimu: samples_sent=%u frames_tx=%u frames_dropped=%u bus_tx_dropped=%llu commands_ok=%u "
-                 "rejected=%u\n",
-                 k.samples_sent, k.stream_frames_tx, k.stream_frames_dropped,
+                 "imuforge-vimu: samples_sent=%u frames_tx=%u frames_dropped=%u fifo_overflow=%u bus_tx_dropped=%llu "
+                 "commands_ok=%u rejected=%u\n",
+                 k.samples_sent, k.stream_frames_tx, k.stream_frames_dropped, k.samples_fifo_overflow,
                  static_cast<unsigned long long>(imu.bus_tx_dropped()), k.commands_ok, k.commands_rejected);
   } catch (const std::exception& e) {
     std::cerr << "imuforge-vimu: " << e.what() << "\n";
