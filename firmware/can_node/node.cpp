@@ -120,6 +120,8 @@ std::size_t cmd_status(CanNode& n, std::uint8_t* r, std::uint64_t now_us) noexce
   r[k++] = n.channels;
   store_le16(r + k, n.rate_hz);
   k += 2;
+  store_le32(r + k, n.counters.samples_fifo_overflow);
+  k += 4;
   return k;
 }
 
@@ -318,16 +320,21 @@ void node_poll(CanNode& n, std::uint64_t now_us) noexcept {
   if (n.reboot_pending && !isotp_tx_busy(n.link)) n.reboot_now = true;
 
   if (n.streaming && n.period_us > 0u) {
-    // Catch up after a stall (see NodeConfig::max_catch_up_samples); skipped samples still advance
-    // the counter, so the host counts them as lost.
-    unsigned burst = 0;
-    while (now_us >= n.next_sample_us) {
-      if (burst < n.cfg.max_catch_up_samples) {
-        emit_sample(n, n.next_sample_us);
-        ++burst;
-      } else {
-        ++n.seq;
+    // The FIFO holds every sample due at or before now_us and not yet sent (see
+    // NodeConfig::fifo_depth_samples). Overflow drops the oldest, as a stream-mode MEMS FIFO does.
+    if (now_us >= n.next_sample_us) {
+      const std::uint64_t waiting = (now_us - n.next_sample_us) / n.period_us + 1u;
+      const std::uint64_t depth = n.cfg.fifo_depth_samples > 0u ? n.cfg.fifo_depth_samples : 1u;
+      if (waiting > depth) {
+        const std::uint64_t over = waiting - depth;
+        n.counters.samples_fifo_overflow += static_cast<std::uint32_t>(over);
+        n.seq = static_cast<std::uint16_t>(n.seq + static_cast<std::uint16_t>(over & 0xFFFFu));
+        n.next_sample_us += over * n.period_us;
       }
+    }
+    const unsigned per_poll = n.cfg.max_samples_per_poll > 0u ? n.cfg.max_samples_per_poll : 1u;
+    for (unsigned k = 0; k < per_poll && now_us >= n.next_sample_us; ++k) {
+      emit_sample(n, n.next_sample_us);
       n.next_sample_us += n.period_us;
     }
   }

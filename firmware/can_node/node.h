@@ -32,10 +32,16 @@ struct NodeConfig {
   TableStoreConfig store;
   std::uint8_t isotp_block_size = 0;    // BS announced to the host (0: one FC per message)
   std::uint8_t isotp_st_min_raw = 0;    // STmin announced to the host
-  // Samples emitted back to back after a stall (a long flash erase on target, an OS scheduling gap in
-  // the virtual IMU), each with its own scheduled timestamp; beyond that they are skipped and the
-  // host counts them as lost.
-  std::uint16_t max_catch_up_samples = 128;
+  // The sensor's sample FIFO, as a MEMS IMU has one: samples fall due at the stream rate whether or
+  // not the node is running. After a stall (a long flash erase on target, an OS scheduling gap in the
+  // virtual IMU) every sample due since the last one sent is still sent, each with its own sensor
+  // timestamp. Only when more than `fifo_depth_samples` are waiting does the FIFO overflow: the oldest
+  // are dropped, counted in NodeCounters::samples_fifo_overflow, and their sequence numbers skipped,
+  // so the host counts exactly those as lost.
+  std::uint16_t fifo_depth_samples = 128;
+  // Samples sent from the FIFO per node_poll: a long backlog drains over several polls, so commands
+  // (stream stop, status) are served in between instead of waiting for the whole backlog.
+  std::uint16_t max_samples_per_poll = 16;
 };
 
 struct NodeCounters {
@@ -48,6 +54,7 @@ struct NodeCounters {
   std::uint32_t auth_failures = 0;
   std::uint32_t sensor_errors = 0;
   std::uint32_t boots = 0;
+  std::uint32_t samples_fifo_overflow = 0;  // dropped by the FIFO (NodeConfig::fifo_depth_samples)
 };
 
 struct CanNode {
@@ -66,7 +73,7 @@ struct CanNode {
   std::uint16_t rate_hz = 0;
   std::uint8_t channels = 0;
   std::uint32_t period_us = 0;
-  std::uint64_t next_sample_us = 0;
+  std::uint64_t next_sample_us = 0;  // due time of the oldest sample in the FIFO (not yet sent)
   std::uint16_t seq = 0;
   bool bus_off = false;
 

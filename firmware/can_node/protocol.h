@@ -74,8 +74,9 @@ enum Status : std::uint8_t {
 // Status response layout (after cmd|0x80, status), all u32 little endian unless noted:
 //   uptime_ms | samples_sent | stream_frames_tx | stream_frames_dropped | bus_off_events |
 //   isotp_rx_errors | isotp_tx_errors | commands_ok | commands_rejected | auth_failures |
-//   boots u32 | active_slot i8 | staged_slot i8 | streaming u8 | channels u8 | rate_hz u16
-constexpr std::size_t kStatusBytes = 11u * 4u + 6u;
+//   boots u32 | active_slot i8 | staged_slot i8 | streaming u8 | channels u8 | rate_hz u16 |
+//   samples_fifo_overflow u32
+constexpr std::size_t kStatusBytes = 11u * 4u + 6u + 4u;
 constexpr std::size_t kIdentifyBytes = 8u + 16u + 1u + 4u + 4u + 4u + 1u + 1u;
 
 // ---- authorisation ---------------------------------------------------------------------------------

@@ -67,6 +67,7 @@ struct NodeStatus {
   bool streaming = false;
   std::uint8_t channels = 0;
   std::uint16_t rate_hz = 0;
+  std::uint32_t samples_fifo_overflow = 0;  // samples the node's FIFO dropped (the host sees them lost)
 };
 
 struct TransferStats {

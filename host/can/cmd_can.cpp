@@ -128,10 +128,11 @@ int run_can(int argc, char** argv) {
       const auto s = c->status();
       std::printf("uptime_ms %u\nboots %u\nsamples_sent %u\nstream_frames_tx %u\nstream_frames_dropped %u\n"
                   "bus_off_events %u\nisotp_rx_errors %u\nisotp_tx_errors %u\ncommands_ok %u\ncommands_rejected %u\n"
-                  "auth_failures %u\nactive_slot %d\nstaged_slot %d\nstreaming %d (%u Hz, channels %u)\n",
+                  "auth_failures %u\nactive_slot %d\nstaged_slot %d\nstreaming %d (%u Hz, channels %u)\n"
+                  "samples_fifo_overflow %u\n",
                   s.uptime_ms, s.boots, s.samples_sent, s.stream_frames_tx, s.stream_frames_dropped, s.bus_off_events,
                   s.isotp_rx_errors, s.isotp_tx_errors, s.commands_ok, s.commands_rejected, s.auth_failures,
-                  s.active_slot, s.staged_slot, s.streaming ? 1 : 0, s.rate_hz, s.channels);
+                  s.active_slot, s.staged_slot, s.streaming ? 1 : 0, s.rate_hz, s.channels, s.samples_fifo_overflow);
     } else if (c_stream->parsed()) {
       std::ofstream csv;
       if (!out.empty()) {

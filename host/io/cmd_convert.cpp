@@ -40,7 +40,7 @@ int run_convert(int argc, char** argv) {
     std::fprintf(stderr, "converted %llu rows -> %s\n", static_cast<unsigned long long>(r.rows_read()), out.c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "imuforge convert: %s\n", e.what());
-    return imuforge::app::kExitFailed;  // still 1 for bad input too (sim_cli_test), unlike the other commands
+    return imuforge::app::exit_code_for(e);  // 2 on a bad input file, like every other command
   }
   return imuforge::app::kExitOk;
 }

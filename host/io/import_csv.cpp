@@ -260,17 +260,26 @@ class Rows {
   std::string max_role_;
 };
 
-std::int32_t to_raw(const Rows& rows, const Channel& ch, const ColRef& c, const std::string& cell) {
+// The count a cell maps to, refused unless it fits the log's declared raw word (`bits`, the metadata
+// key `key`): a log the import wrote must read back (found by fuzz_import_csv: an offset that pushed a
+// gyro count to -32769 in a 16-bit log).
+std::int32_t to_raw(const Rows& rows, const Channel& ch, const ColRef& c, const std::string& cell, int bits,
+                    const char* key) {
   const std::string where = rows.cell_where(c);
+  double q = 0;
   if (ch.counts) {
-    const double v = detail::to_double(cell, where) - ch.offset;
-    if (v != std::floor(v) || std::fabs(v) > 2147483647.0)
+    q = detail::to_double(cell, where) - ch.offset;
+    if (q != std::floor(q) || std::fabs(q) > 2147483647.0)
       throw LogError(where + ": expected an integer count (unit \"counts\"), got '" + cell + "'");
-    return static_cast<std::int32_t>(v);
+  } else {
+    q = std::round((detail::to_double(cell, where) - ch.offset) / ch.lsb_unit);
+    if (std::fabs(q) > 2147483647.0) throw LogError(where + ": '" + cell + "' is beyond ±2^31 LSB");
   }
-  const double q = std::round((detail::to_double(cell, where) - ch.offset) / ch.lsb_unit);
-  if (std::fabs(q) > 2147483647.0) throw LogError(where + ": '" + cell + "' is beyond ±2^31 LSB");
-  return static_cast<std::int32_t>(q);
+  const auto count = static_cast<std::int64_t>(q);
+  if (!raw_fits(count, bits))
+    throw LogError(where + ": '" + cell + "' maps to " + std::to_string(count) + " counts, outside the " +
+                   std::to_string(bits) + "-bit raw word (" + key + "; set it in the map's \"metadata\")");
+  return static_cast<std::int32_t>(count);
 }
 
 double to_degC(const Map& m, double v) {
@@ -343,8 +352,8 @@ ImportSummary import_mapped_csv(const ImportOptions& o, const std::string& out, 
     for (int k = 0; k < 3; ++k) {
       const ColRef& ca = m.accel.cols[static_cast<std::size_t>(k)];
       const ColRef& cg = m.gyro.cols[static_cast<std::size_t>(k)];
-      row.raw[k] = to_raw(rows, m.accel, ca, cells[static_cast<std::size_t>(ca.index)]);
-      row.raw[3 + k] = to_raw(rows, m.gyro, cg, cells[static_cast<std::size_t>(cg.index)]);
+      row.raw[k] = to_raw(rows, m.accel, ca, cells[static_cast<std::size_t>(ca.index)], meta.accel_bits, "accel_bits");
+      row.raw[3 + k] = to_raw(rows, m.gyro, cg, cells[static_cast<std::size_t>(cg.index)], meta.gyro_bits, "gyro_bits");
     }
     if (m.temp) {
       const std::string& c = cells[static_cast<std::size_t>(m.temp->index)];

@@ -105,9 +105,7 @@ VirtualImu::VirtualImu(VirtualImuConfig cfg) : cfg_(std::move(cfg)), impl_(std::
   nc.store.slot_bytes = kSlotBytes;
   nc.isotp_block_size = cfg_.isotp_block_size;
   nc.isotp_st_min_raw = cfg_.isotp_st_min_raw;
-  // A Linux process (worse: one inside an emulated VM) can be descheduled for hundreds of ms; the
-  // sensor is sampled on its own clock, so catch up on up to 5 s of samples rather than drop them.
-  nc.max_catch_up_samples = cfg_.max_catch_up_samples;
+  nc.fifo_depth_samples = cfg_.fifo_depth_samples;
 }
 
 VirtualImu::~VirtualImu() { stop(); }

@@ -48,10 +48,10 @@ struct VirtualImuConfig {
   TruthFn truth;            // empty: standin_signal
   std::uint8_t isotp_block_size = 8;
   std::uint8_t isotp_st_min_raw = 0;
-  // Samples the node emits at once after a stall before it skips (counted lost by the host). 5 s at
-  // 1 kHz by default; the VM test raises it: there the emulator, not the node, is what a loaded host
-  // starves, and a real node has its own CPU.
-  std::uint16_t max_catch_up_samples = 5000;
+  // Depth of the node's sample FIFO (fw::NodeConfig::fifo_depth_samples): 5 s at 1 kHz. A Linux
+  // process (worse: one inside an emulated VM on a loaded host) can be descheduled for seconds, which a
+  // real node with its own CPU is not; beyond this the FIFO overflows and the loss is counted.
+  std::uint16_t fifo_depth_samples = 5000;
 };
 
 class VirtualImu {

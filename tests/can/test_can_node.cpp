@@ -200,6 +200,75 @@ void extended_ids() {
   CHECK_EQ(rig.host_rx[2 + 38] & 1, 1);
 }
 
+// The sample FIFO (NodeConfig::fifo_depth_samples): a late loop still sends every sample due, each with
+// its own timestamp; only beyond the depth are samples dropped, counted exactly, and seen as a seq gap.
+struct TempFrames {
+  std::uint32_t n = 0, seq_gaps = 0, bad_dt = 0;
+  long last_seq = -1;
+  std::uint64_t last_t_us = 0;
+  std::uint32_t gap_samples = 0;
+};
+
+void poll_collect(TempFrames& tf, unsigned polls, std::uint32_t dt_us) {
+  for (unsigned i = 0; i < polls; ++i) {
+    node_poll(rig.node, rig.t_us);
+    imuforge::hal::CanFrame f;
+    while (rig.host_port.receive(f) == imuforge::hal::kCanOk) {
+      if (f.id != proto::stream_id(5, proto::kPartTemp, false)) continue;
+      const long seq = load_le16(f.data);
+      const std::uint64_t t = load_le32(f.data + 4);
+      if (tf.last_seq >= 0) {
+        const long step = (seq - tf.last_seq + 65536) % 65536;
+        if (step != 1) {
+          ++tf.seq_gaps;
+          tf.gap_samples += static_cast<std::uint32_t>(step - 1);
+        }
+        // the timestamp is the sample's own (its due time), also for samples sent late
+        if (t - tf.last_t_us != static_cast<std::uint64_t>(step) * 1000u) ++tf.bad_dt;
+      }
+      tf.last_seq = seq;
+      tf.last_t_us = t;
+      ++tf.n;
+    }
+    rig.t_us += dt_us;
+  }
+}
+
+void sample_fifo() {
+  rig.init();
+  CHECK_EQ(rig.cfg.fifo_depth_samples, 128);
+  std::uint8_t r[4] = {proto::kCmdStreamStart, 0, 0, proto::kChTemp};
+  store_le16(r + 1, 1000);
+  CHECK_EQ(rig.exchange(r, 4) >= 2 ? rig.host_rx[1] : 0xFF, proto::kStOk);
+  TempFrames tf;
+  poll_collect(tf, 100, 100);  // 10 ms on time
+  // A 100 ms stall (100 samples due, within the depth): all of them arrive, in order, own timestamps.
+  const std::uint32_t before = tf.n;
+  rig.t_us += 100000;
+  poll_collect(tf, 50, 100);
+  CHECK(tf.n - before >= 100 + 4);
+  CHECK_EQ(tf.seq_gaps, 0);
+  CHECK_EQ(tf.bad_dt, 0);
+  CHECK_EQ(rig.node.counters.samples_fifo_overflow, 0);
+  // Drained over several polls (max_samples_per_poll), not in one burst.
+  CHECK_EQ(rig.cfg.max_samples_per_poll, 16);
+  // A 500 ms stall: 128 kept, the older ones dropped, counted, and visible as exactly that gap.
+  const std::uint32_t sent0 = rig.node.counters.samples_sent;
+  const std::uint64_t due_from = rig.node.next_sample_us;
+  rig.t_us += 500000;
+  const std::uint64_t due = (rig.t_us - due_from) / 1000u + 1u;
+  poll_collect(tf, 200, 100);
+  CHECK_EQ(rig.node.counters.samples_fifo_overflow, static_cast<std::uint32_t>(due - 128u));
+  CHECK_EQ(tf.seq_gaps, 1);
+  CHECK_EQ(tf.gap_samples, rig.node.counters.samples_fifo_overflow);
+  CHECK_EQ(tf.bad_dt, 0);
+  CHECK(rig.node.counters.samples_sent - sent0 >= 128);
+  // The status block carries the overflow count.
+  std::uint8_t q[1] = {proto::kCmdStatus};
+  CHECK_EQ(rig.exchange(q, 1), 2 + proto::kStatusBytes);
+  CHECK_EQ(load_le32(rig.host_rx + 2 + 50), rig.node.counters.samples_fifo_overflow);
+}
+
 }  // namespace
 
 int main() {
@@ -207,5 +276,6 @@ int main() {
   streaming();
   reset_mid_transfer();
   extended_ids();
+  sample_fifo();
   return FW_TEST_RESULT("test_can_node");
 }

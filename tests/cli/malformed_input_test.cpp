@@ -238,9 +238,13 @@ TEST_F(MalformedInput, Logs) {
   const std::string model = ex("model-basic.json");
   auto solve = [&](const std::string& p) { return "solve --log " + p + " --model " + model + " --out OUT/cal.json --table OUT/table.bin --serial 1"; };
   auto comp = [&](const std::string& p) { return "compensate --table " + g_table + " --in " + p + " --out OUT/comp.csv"; };
+  auto conv = [&](const std::string& p) { return "convert --in " + p + " --out OUT/conv.bin"; };
+  // Every broken log through each command that reads one: solve, compensate and convert (issue 16:
+  // convert exits 2 on a bad input like every other command).
   auto both = [&](const std::string& file, const std::string& broken, const std::string& p, const std::string& says) {
     v.push_back({file, broken + " [solve]", p, solve(p), says});
     v.push_back({file, broken + " [compensate]", p, comp(p), says});
+    v.push_back({file, broken + " [convert]", p, conv(p), says});
   };
   auto L = lines_of(g_log_csv);
   const std::size_t h = header_index(L);

@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
@@ -34,11 +35,39 @@ class PgServer {
     }
     run(as_user + kBin + "/initdb -D " + dir_ + "/data -A trust -U imuforge -E UTF8 --no-sync >" + dir_ +
         "/initdb.log 2>&1");
-    run(as_user + kBin + "/pg_ctl -D " + dir_ + "/data -w -t 60 -l " + dir_ +
+    as_user_ = as_user;
+    start();
+    url_ = "postgresql://imuforge@/postgres?host=" + dir_ + "&port=5432";
+  }
+  // Stops and starts the server on the same data directory (a server restarted under a running client).
+  void stop(const char* mode = "fast") {
+    run(as_user_ + kBin + "/pg_ctl -D " + dir_ + "/data -m " + mode + " -w stop >/dev/null 2>&1");
+    started_ = false;
+  }
+  void start() {
+    run(as_user_ + kBin + "/pg_ctl -D " + dir_ + "/data -w -t 60 -l " + dir_ +
         "/server.log -o \"-k " + dir_ + " -c listen_addresses='' -p 5432 -c fsync=off\" start >/dev/null 2>&1");
     started_ = true;
-    as_user_ = as_user;
-    url_ = "postgresql://imuforge@/postgres?host=" + dir_ + "&port=5432";
+  }
+  // Runs SQL through psql on a connection of its own (a second client); returns psql's output
+  // (unaligned, tuples only). The SQL goes through a file: no shell quoting of $$ or quotes.
+  std::string psql(const std::string& sql) const {
+    const std::string f = dir_ + "/q.sql";
+    {
+      std::FILE* q = std::fopen(f.c_str(), "w");
+      if (!q) throw std::runtime_error("cannot write " + f);
+      std::fputs(sql.c_str(), q);
+      std::fclose(q);
+    }
+    const std::string cmd = "psql -X -A -t -q -v ON_ERROR_STOP=1 -d '" + url_ + "' -f " + f + " 2>&1";
+    std::FILE* p = ::popen(cmd.c_str(), "r");
+    if (!p) throw std::runtime_error("popen psql failed");
+    std::string out;
+    char buf[512];
+    while (std::fgets(buf, sizeof buf, p)) out += buf;
+    if (::pclose(p) != 0) throw std::runtime_error("psql failed: " + out + " for: " + sql);
+    while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+    return out;
   }
   ~PgServer() {
     if (started_)

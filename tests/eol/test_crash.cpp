@@ -18,20 +18,28 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
 #include <set>
 #include <thread>
+#include <vector>
 
+#include "host/eol/batch.h"
 #include "host/eol/journal.h"
+#include "host/eol/station.h"
+#include "host/io/campaign_file.h"
+#include "host/model/sensor_model.h"
 #include "host/io/log.h"
 #include "host/eol/runner.h"
 #include "host/records/store.h"
 #include "tests/eol/fake_world.h"
+#include "tests/eol/pg_server.h"
 
 using namespace imuforge;
 using namespace imuforge::eol;
@@ -175,6 +183,32 @@ int env_int(const char* name, int def) {
   return v != nullptr ? std::atoi(v) : def;
 }
 
+// A rotation in flight at the kill is measured again from its start position, while the uninterrupted
+// run had turned on into it from the previous rotation (CW then CCW): the same noise samples meet the
+// gravity vector at another table phase, which for the accelerometer's misalignments is a fresh noise
+// realisation of that one segment. Its expected spread is the segment's information share: with
+// I_s = P⁻¹ − P_without⁻¹ (P: the uninterrupted run's batch covariance, P_without: the same solve without
+// the segment), δθ = P J_sᵀW(e₁ − e₂) has covariance 2·P·I_s·P. Returns √diag of that.
+Eigen::VectorXd fresh_segment_sd(const std::string& ref_dir, int segment, const fs::path& d) {
+  const eol::StationConfig st = eol::load_station((d / "station.json").string());
+  const model::ModelSpec spec = model::load_model_spec((d / "model.json").string());
+  const physics::Campaign camp = io::load_campaign((d / "campaign.json").string());
+  const std::string full = ref_dir + "/log.bin";
+  const std::string without = (d / ("without-" + std::to_string(segment) + ".bin")).string();
+  {
+    io::LogReader r(full);
+    io::LogWriter w(without, r.meta(), io::LogEncoding::kBinary);
+    io::LogRow row;
+    while (r.next(row))
+      if (row.segment != segment) w.write(row);
+    w.close();
+  }
+  const Eigen::MatrixXd P = eol::solve_unit_log(full, st, spec, camp).estimate.covariance;
+  const Eigen::MatrixXd Pw = eol::solve_unit_log(without, st, spec, camp).estimate.covariance;
+  const Eigen::MatrixXd Is = P.inverse() - Pw.inverse();
+  return (2.0 * P * Is * P).diagonal().cwiseMax(0.0).cwiseSqrt();
+}
+
 }  // namespace
 
 TEST(Crash, SigkillAtRandomPointsThenResumeEqualsUninterrupted) {
@@ -214,7 +248,8 @@ TEST(Crash, SigkillAtRandomPointsThenResumeEqualsUninterrupted) {
   std::mt19937_64 rng(static_cast<std::uint64_t>(env_int("IMUFORGE_CRASH_SEED", 1)));
   std::uniform_real_distribution<double> when(0.05 * wall_s, 0.95 * wall_s);
   int tried = 0, survived = 0, finished_first = 0, within_tenth = 0;
-  double worst_ratio = 0, worst_rotation = 0;
+  double worst_ratio = 0, worst_rotation = 0, worst_rotation_z = 0;
+  std::map<std::size_t, Eigen::VectorXd> fresh_sd;  // per in-flight rotation segment
   for (int k = 0; k < points; ++k) {
     const std::string name = "kill" + std::to_string(k);
     const RunOptions o = opts(name);
@@ -256,31 +291,215 @@ TEST(Crash, SigkillAtRandomPointsThenResumeEqualsUninterrupted) {
     if (r.ok) {
       EXPECT_EQ(r.names, ref.names);
       ok = ok && r.names == ref.names;
-      // The segment in flight at the kill is collected again; a rotation starts again from its start
-      // position (the runner cannot know the phase the table had reached), so that one segment can hold
-      // different, equally valid data. Everything else is the same data: within σ/10.
+      // The segment in flight at the kill is collected again. A static dwell at the same pose sees the same
+      // data (the lab's noise is a function of the pose): within σ/10. A rotation starts again from its
+      // start position (the runner cannot know the phase the table had reached): a fresh measurement of
+      // that one segment, held to the spread its information share predicts (fresh_segment_sd), at most
+      // 4.5 of those standard deviations (σ/10 where that is larger).
       const std::size_t in_flight = static_cast<std::size_t>(r.segments_resumed);
       const bool rotation_in_flight = in_flight < ref.segment_kinds.size() && ref.segment_kinds[in_flight] == "rate";
-      double worst = 0;
-      for (std::size_t i = 0; i < ref.names.size() && i < r.value.size(); ++i) {
-        const double ratio = std::fabs(r.value[i] - ref.value[i]) / ref.sigma[i];
-        worst = std::max(worst, ratio);
-        EXPECT_LT(ratio, rotation_in_flight ? 1.0 : 0.1)
-            << name << ": " << ref.names[i] << " differs by " << ratio << " σ (in flight: segment " << in_flight
-            << (rotation_in_flight ? ", a rotation)" : ")");
+      Eigen::VectorXd sd;
+      if (rotation_in_flight) {
+        auto it = fresh_sd.find(in_flight);
+        if (it == fresh_sd.end())
+          it = fresh_sd.emplace(in_flight, fresh_segment_sd(opts("ref").out_dir, static_cast<int>(in_flight), d)).first;
+        sd = it->second;
       }
+      double worst = 0, worst_z = 0;
+      std::string worst_name;
+      bool within = true;
+      for (std::size_t i = 0; i < ref.names.size() && i < r.value.size(); ++i) {
+        const double diff = std::fabs(r.value[i] - ref.value[i]);
+        const double ratio = diff / ref.sigma[i];
+        if (ratio > worst) worst_name = ref.names[i];
+        worst = std::max(worst, ratio);
+        double bound = 0.1 * ref.sigma[i];
+        if (rotation_in_flight) {
+          const double s_i = sd[static_cast<Eigen::Index>(i)];
+          bound = std::max(bound, 4.5 * s_i);
+          // Where σ/10 is not enough, the difference measured in fresh-noise standard deviations.
+          if (diff >= 0.1 * ref.sigma[i] && s_i > 0) worst_z = std::max(worst_z, diff / s_i);
+        }
+        within = within && diff < bound;
+        EXPECT_LT(diff, bound) << name << ": " << ref.names[i] << " differs by " << ratio << " σ (in flight: segment "
+                               << in_flight << (rotation_in_flight ? ", a rotation: expected spread " : ")")
+                               << (rotation_in_flight ? std::to_string(sd[static_cast<Eigen::Index>(i)] / ref.sigma[i]) + " σ" : "");
+      }
+      if (rotation_in_flight) {
+        std::size_t k = 0;
+        for (std::size_t i = 0; i < ref.names.size(); ++i)
+          if (ref.names[i] == worst_name) k = i;
+        std::printf("%s: rotation in flight (segment %zu): largest difference %.3f σ (%s), a fresh measurement of the "
+                    "segment predicts a spread of %.3f σ there; beyond σ/10 at most %.2f fresh-noise spreads\n",
+                    name.c_str(), in_flight, worst, worst_name.c_str(),
+                    sd.size() > 0 ? sd[static_cast<Eigen::Index>(k)] / ref.sigma[k] : 0.0, worst_z);
+        worst_rotation_z = std::max(worst_rotation_z, worst_z);
+      }
+      std::printf("%s: killed at %.2f s, in flight: segment %zu (%s), largest difference %.3g σ (%s)\n", name.c_str(),
+                  delay_s, in_flight, in_flight < ref.segment_kinds.size() ? ref.segment_kinds[in_flight].c_str() : "none",
+                  worst, worst_name.c_str());
       (rotation_in_flight ? worst_rotation : worst_ratio) = std::max(rotation_in_flight ? worst_rotation : worst_ratio, worst);
-      ok = ok && worst < (rotation_in_flight ? 1.0 : 0.1);
+      ok = ok && within;
       within_tenth += worst < 0.1 ? 1 : 0;
     }
     survived += ok ? 1 : 0;
   }
   std::printf("kill points survived: %d of %d (%d runs finished before their kill; uninterrupted run %.1f s wall)\n"
               "parameters within σ/10 of the uninterrupted run: %d of %d; largest difference %.2e σ with a static "
-              "dwell in flight, %.2e σ with a rotation in flight (re-started from its start position)\n",
-              survived, tried, finished_first, wall_s, within_tenth, tried, worst_ratio, worst_rotation);
+              "dwell in flight, %.2e σ with a rotation in flight (re-started from its start position; beyond σ/10 at "
+              "most %.2f of the spread a fresh measurement of that segment predicts)\n",
+              survived, tried, finished_first, wall_s, within_tenth, tried, worst_ratio, worst_rotation, worst_rotation_z);
   EXPECT_GT(tried, 0) << "no kill landed inside a run";
   EXPECT_EQ(survived, tried);
   ::munmap(mem, sizeof(eoltest::LabState));
   if (!std::getenv("EOL_KEEP")) fs::remove_all(d);
 }
+
+// A PostgreSQL connection dropped in the middle of writing the record (issue 16), two ways: the backend
+// terminated from a second connection (pg_terminate_backend), and the server stopped and started again.
+// A one-shot trigger holds the insert of the 4th parameter row (pg_sleep) so the drop lands inside the
+// record's transaction, deterministically. The run must fail as a peer failure with nothing written
+// (the transaction is rolled back), and `--resume` must leave exactly one record, under the id journaled
+// before the drop, with the uninterrupted run's parameters (within σ/10) and no row twice.
+namespace {
+
+struct InProcessRun {
+  RunResult res;
+  std::string error;
+};
+
+InProcessRun run_in_process(const RunOptions& o, eoltest::FakeWorld& w, eoltest::FakeDevice& dev) {
+  InProcessRun out;
+  try {
+    eoltest::FakeBench b(w);
+    eoltest::FakeTableOps t;
+    Runner r(o, b, dev, t);
+    out.res = r.run();
+  } catch (const std::exception& e) {
+    out.error = e.what();
+  }
+  return out;
+}
+
+void pg_drop_mid_write(bool stop_server) {
+  imuforge::testing::PgServer pg;
+  const fs::path d = fs::temp_directory_path() / ("imuforge-pgdrop-" + records::new_record_id());
+  fs::create_directories(d);
+  std::ofstream(d / "campaign.json") << kCampaign;
+  std::ofstream(d / "model.json") << kModel;
+  std::ofstream(d / "station.json") << kStation;
+  auto opts = [&](const std::string& name, const std::string& db) {
+    RunOptions o;
+    o.out_dir = (d / name).string();
+    o.serial = "SN-42";
+    o.campaign_path = (d / "campaign.json").string();
+    o.station_path = (d / "station.json").string();
+    o.db = db;
+    o.early_stop = false;
+    o.progress = nullptr;
+    return o;
+  };
+  // The uninterrupted reference (SQLite: the back end does not change the record's content).
+  eoltest::FakeWorld wref;
+  wref.noise_per_stream = true;
+  eoltest::FakeDevice dref(wref, "SN-42");
+  const InProcessRun ref = run_in_process(opts("ref", (d / "ref.db").string()), wref, dref);
+  ASSERT_TRUE(ref.error.empty()) << ref.error;
+  const Eigen::VectorXd ref_sigma = ref.res.estimate.sigma();
+
+  records::open_store(pg.url())->ensure_schema();
+  pg.psql(
+      "CREATE TABLE drop_once (armed BOOLEAN NOT NULL);\n"
+      "INSERT INTO drop_once VALUES (true);\n"
+      "CREATE FUNCTION hold_mid_write() RETURNS trigger LANGUAGE plpgsql AS $$\n"
+      "BEGIN\n"
+      "  IF NEW.ord = 3 AND (SELECT armed FROM drop_once) THEN PERFORM pg_sleep(120); END IF;\n"
+      "  RETURN NEW;\n"
+      "END $$;\n"
+      "CREATE TRIGGER hold BEFORE INSERT ON calibration_parameter FOR EACH ROW EXECUTE FUNCTION hold_mid_write();\n");
+
+  eoltest::FakeWorld w;
+  w.noise_per_stream = true;
+  eoltest::FakeDevice dev(w, "SN-42");
+  const RunOptions o = opts("pg", pg.url());
+  InProcessRun first;
+  std::atomic<bool> first_done{false};
+  std::thread runner([&] {
+    first = run_in_process(o, w, dev);
+    first_done = true;
+  });
+  // Wait for the record's insert to be held by the trigger, then drop its connection. Whatever happens
+  // here, the runner thread is joined before anything can end the test.
+  bool held = false;
+  std::string drop_error;
+  try {
+    std::string pid;
+    for (int i = 0; i < 6000 && !held && !first_done; ++i) {
+      pid = pg.psql("SELECT pid FROM pg_stat_activity WHERE wait_event = 'PgSleep'");
+      held = !pid.empty() && pid.find_first_not_of("0123456789") == std::string::npos;
+      if (!held) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    if (held && stop_server) {
+      pg.stop("fast");  // terminates the backend, rolls its transaction back, shuts down
+    } else if (held) {
+      // By pid, in a statement of its own: in one WHERE with the filter, PostgreSQL may call
+      // pg_terminate_backend before filtering (seen: it ended every backend, its own included).
+      const std::string ok = pg.psql("SELECT pg_terminate_backend(" + pid + ")");
+      if (ok != "t") drop_error = "pg_terminate_backend(" + pid + ") returned '" + ok + "'";
+    }
+  } catch (const std::exception& e) {
+    drop_error = e.what();
+  }
+  if (!held && !first_done && drop_error.empty()) drop_error = "timed out waiting for the held insert";
+  if (!held) pg.psql("UPDATE drop_once SET armed = false");  // let a held insert (if any) finish
+  runner.join();
+  ASSERT_TRUE(held) << "the record insert never reached the held row (" << drop_error << "); first run: '"
+                    << first.error << "'";
+  ASSERT_TRUE(drop_error.empty()) << drop_error;
+  EXPECT_NE(first.error.find("records:"), std::string::npos) << "expected a peer failure, got: '" << first.error << "'";
+  if (stop_server) pg.start();
+  // Nothing of the record was written: the transaction was rolled back with the connection.
+  EXPECT_EQ(pg.psql("SELECT count(*) FROM calibration WHERE serial = 'SN-42'"), "0");
+  EXPECT_EQ(pg.psql("SELECT count(*) FROM calibration_parameter"), "0");
+  std::string journaled_id;
+  for (const auto& e : read_journal(o.out_dir + "/journal.log").entries)
+    if (e["type"] == "recording") journaled_id = e.value("id", "");
+  EXPECT_FALSE(journaled_id.empty()) << "the record id is journaled before the insert";
+
+  pg.psql("UPDATE drop_once SET armed = false");
+  RunOptions ro = o;
+  ro.resume = true;
+  const InProcessRun second = run_in_process(ro, w, dev);
+  ASSERT_TRUE(second.error.empty()) << second.error;
+  auto store = records::open_store(pg.url());
+  const auto found = store->find_by_serial("SN-42");
+  ASSERT_EQ(found.size(), 1u) << "exactly one record after the resume";
+  EXPECT_EQ(found[0].id, journaled_id);
+  EXPECT_EQ(pg.psql("SELECT count(*) FROM calibration"), "1");
+  const records::CalibrationRecord rec = store->get(found[0].id);
+  const auto& names = ref.res.estimate.names;
+  ASSERT_EQ(rec.parameters.size(), ref.res.record.parameters.size()) << "a parameter row missing or twice";
+  EXPECT_EQ(pg.psql("SELECT count(*) - count(DISTINCT ord) FROM calibration_parameter"), "0");
+  for (std::size_t i = 0; i < rec.parameters.size(); ++i) {
+    EXPECT_EQ(rec.parameters[i].name, ref.res.record.parameters[i].name);
+  }
+  // The estimate behind the record: the resumed run's against the uninterrupted run's, within σ/10.
+  ASSERT_EQ(second.res.estimate.names, names);
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const double ratio = std::fabs(second.res.estimate.value[static_cast<Eigen::Index>(i)] -
+                                   ref.res.estimate.value[static_cast<Eigen::Index>(i)]) /
+                         ref_sigma[static_cast<Eigen::Index>(i)];
+    EXPECT_LT(ratio, 0.1) << names[i] << " differs by " << ratio << " σ";
+  }
+  for (std::size_t i = 0; i < rec.parameters.size(); ++i) {
+    const auto& a = rec.parameters[i];
+    const auto& b = ref.res.record.parameters[i];
+    EXPECT_LE(std::fabs(a.value - b.value), 0.1 * b.sigma) << a.name << " (record row)";
+  }
+  if (!std::getenv("EOL_KEEP")) fs::remove_all(d);
+}
+
+}  // namespace
+
+TEST(CrashPostgres, BackendTerminatedMidRecordThenResume) { pg_drop_mid_write(false); }
+TEST(CrashPostgres, ServerStoppedMidRecordThenResume) { pg_drop_mid_write(true); }

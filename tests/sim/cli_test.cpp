@@ -80,9 +80,9 @@ TEST(Cli, Hdf5LogThroughSimulateConvertAndSolve) {
   const auto b = nlohmann::json::parse(slurp(tmp("cal-bin.json")));
   EXPECT_EQ(a["parameters"], b["parameters"]);
   EXPECT_GT(a["parameters"].size(), 10u);
-  // A broken input leaves no output behind.
+  // A broken input exits 2 (bad input, as every command) and leaves no output behind.
   std::ofstream(tmp("broken.h5"), std::ios::binary) << "\x89HDF\r\n\x1a\n garbage";
-  EXPECT_EQ(sh("convert --in " + tmp("broken.h5") + " --out " + tmp("never.csv")), 1);
+  EXPECT_EQ(sh("convert --in " + tmp("broken.h5") + " --out " + tmp("never.csv")), 2);
   EXPECT_FALSE(std::filesystem::exists(tmp("never.csv")));
   EXPECT_FALSE(std::filesystem::exists(tmp("never.csv.partial")));
 }

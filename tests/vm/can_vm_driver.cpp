@@ -5,8 +5,8 @@
 //   can_vm_driver run --bus socketcan:vcan0 --node 1 --serial 777 --slow-s 20 --stream-s 60 --bench-s 10
 //   can_vm_driver candump <file> --node 1 --host-counts /tmp/host_counts   (decode candump -L output)
 // What must hold under any load (checks): the table flash, no sample lost at 200 Hz and 1 kHz, and every
-// lost frame counted exactly (host count = candump's count). What is measured (BENCH): the 2 kHz run,
-// throughput, flash time.
+// lost frame counted exactly (host count = candump's count), FIFO overflow = host-counted loss. What is
+// measured (BENCH): the loss-free rate under load (2000/1600/1250 Hz tried), throughput, flash time.
 #include <chrono>
 #include <cinttypes>
 #include <cstdio>
@@ -68,35 +68,54 @@ struct HostTotals {
 HostTotals g_totals;
 
 // One stream run. `must_hold`: the station rates (200 Hz, 1 kHz), where no sample may be lost whatever
-// the load: every sample the node counted as sent arrives complete, once. Otherwise a benchmark figure.
-// Throughput (samples/s delivered) is always a figure: an emulated node under load may fall behind and
-// catch up, and the backlog is cut at stop; that is not a loss (the node never sent those samples).
-void stream_run(can::Client& c, std::uint16_t rate, double seconds, bool must_hold) {
-  const std::uint32_t sent_before = c.status().samples_sent;
+// the load: every sample the node counted as sent arrives complete, once, and the node's sample FIFO
+// never overflowed. Otherwise a benchmark figure. Throughput (samples/s delivered) is always a figure:
+// an emulated node under load falls behind and catches up from its FIFO (firmware/can_node/node.h);
+// what is still in the FIFO at stop is never sent, which is not a loss. A run "keeps up" when the node
+// sent at least 95 % of rate x duration: then the rate is sustained, not just buffered.
+struct RunResult {
+  bool loss_free = false;
+  bool kept_up = false;
+};
+
+RunResult stream_run(can::Client& c, std::uint16_t rate, double seconds, bool must_hold) {
+  const can::NodeStatus st0 = c.status();
+  const std::uint32_t sent_before = st0.samples_sent;
   const auto t0 = Clock::now();
   c.start_stream(rate, proto::kChAll, nullptr);
   std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int>(seconds * 1000)));
   const std::uint32_t node_sent_total = c.stop_stream(300);
   const double el = std::chrono::duration<double>(Clock::now() - t0).count();
   const can::StreamCounters k = c.stream_counters();
+  const can::NodeStatus st1 = c.status();
   const std::uint64_t sent = node_sent_total - sent_before;
+  const std::uint64_t overflow = st1.samples_fifo_overflow - st0.samples_fifo_overflow;
+  const std::uint64_t tx_dropped = st1.stream_frames_dropped - st0.stream_frames_dropped;
   g_totals.frames_lost += k.frames_lost;
   g_totals.samples_lost += k.lost;
   g_totals.incomplete += k.incomplete;
   const double loss = k.frames == 0 ? 1.0 : static_cast<double>(k.frames_lost) / static_cast<double>(k.frames + k.frames_lost);
-  char buf[512];
+  RunResult res;
+  res.loss_free = k.lost == 0 && k.incomplete == 0 && k.frames_lost == 0 && k.duplicated == 0 && overflow == 0 &&
+                  tx_dropped == 0 && k.received == sent && k.received > 0;
+  res.kept_up = static_cast<double>(sent) >= 0.95 * rate * seconds;
+  char buf[640];
   std::snprintf(buf, sizeof buf,
                 "rate_hz=%u seconds=%.1f node_sent=%" PRIu64 " samples=%" PRIu64 " frames=%" PRIu64 " lost=%" PRIu64
                 " incomplete=%" PRIu64 " duplicated=%" PRIu64 " reordered=%" PRIu64 " frames_lost=%" PRIu64
-                " throughput_samples_s=%.1f frame_loss=%.6f",
+                " fifo_overflow=%" PRIu64 " node_tx_dropped=%" PRIu64
+                " throughput_samples_s=%.1f frame_loss=%.6f kept_up=%d",
                 rate, seconds, sent, k.received, k.frames, k.lost, k.incomplete, k.duplicated, k.reordered,
-                k.frames_lost, static_cast<double>(k.received) / el, loss);
+                k.frames_lost, overflow, tx_dropped, static_cast<double>(k.received) / el, loss, res.kept_up ? 1 : 0);
   std::printf("BENCH stream %s\n", buf);
-  if (must_hold) {
-    const bool ok = k.lost == 0 && k.incomplete == 0 && k.frames_lost == 0 && k.duplicated == 0 &&
-                    k.received == sent && k.received > 0;
-    report(("stream" + std::to_string(rate)).c_str(), ok, buf);
+  if (must_hold) report(("stream" + std::to_string(rate)).c_str(), res.loss_free, buf);
+  // Whatever the rate: samples the FIFO dropped are samples the host counts lost (none else may vanish
+  // on the node side; a frame lost on the bus is checked against candump afterwards).
+  if (tx_dropped == 0 && k.frames_lost == 3 * k.lost) {
+    report(("fifo_counted" + std::to_string(rate)).c_str(), k.lost == overflow,
+           "host_lost=" + std::to_string(k.lost) + " node_fifo_overflow=" + std::to_string(overflow));
   }
+  return res;
 }
 
 int run(int argc, char** argv) {
@@ -155,9 +174,23 @@ int run(int argc, char** argv) {
     }
     report("auth", refused && c->identify().table_seq == seq, why);
 
-    stream_run(*c, 200, slow_s, true);
-    stream_run(*c, 1000, stream_s, true);
-    if (bench_s > 0) stream_run(*c, 2000, bench_s, false);
+    // The station's rates: must hold. Then the benchmark: the highest rate the loaded, emulated node
+    // sustains loss-free (FIFO never overflowed, every sample arrived, >= 95 % of rate x time sent).
+    std::uint16_t best = 0;
+    if (stream_run(*c, 200, slow_s, true).loss_free) best = 200;
+    const RunResult r1k = stream_run(*c, 1000, stream_s, true);
+    if (r1k.loss_free && r1k.kept_up) best = 1000;
+    if (bench_s > 0 && best == 1000) {
+      for (std::uint16_t rate : {2000, 1600, 1250}) {
+        const RunResult r = stream_run(*c, rate, bench_s, false);
+        if (r.loss_free && r.kept_up) {
+          best = rate;
+          break;
+        }
+      }
+    }
+    std::printf("BENCH loss_free_rate_hz=%u (highest of 200, 1000, then 2000/1600/1250 tried in that order, "
+                "that was loss-free and sustained)\n", best);
     // The table is still the one flashed before the streams (streaming never touches the store).
     std::uint32_t seq_after = 0;
     const bool same = c->read_table(&seq_after) == table;

@@ -28,8 +28,8 @@ int main(int argc, char** argv) {
   app.add_option("--key-hex", key_hex, "device HMAC key, 64 hex digits (default: the dev key of the serial)");
   app.add_option("--flash-file", cfg.flash_file, "persist the simulated flash in this file");
   app.add_option("--duration-s", duration_s, "exit after this many seconds (0: until SIGINT/SIGTERM)");
-  app.add_option("--max-catch-up", cfg.max_catch_up_samples,
-                 "samples sent at once after a stall before the node skips (default 5000)");
+  app.add_option("--fifo-depth", cfg.fifo_depth_samples,
+                 "depth of the node's sample FIFO: samples kept while the node runs late (default 5000)");
   unsigned bs = cfg.isotp_block_size;
   app.add_option("--isotp-bs", bs, "ISO-TP block size announced to the host")->check(CLI::Range(0, 255));
   try {
@@ -66,9 +66,9 @@ int main(int argc, char** argv) {
     imu.stop();
     const auto k = imu.counters();
     std::fprintf(stderr,
-                 "imuforge-vimu: samples_sent=%u frames_tx=%u frames_dropped=%u bus_tx_dropped=%llu commands_ok=%u "
-                 "rejected=%u\n",
-                 k.samples_sent, k.stream_frames_tx, k.stream_frames_dropped,
+                 "imuforge-vimu: samples_sent=%u frames_tx=%u frames_dropped=%u fifo_overflow=%u bus_tx_dropped=%llu "
+                 "commands_ok=%u rejected=%u\n",
+                 k.samples_sent, k.stream_frames_tx, k.stream_frames_dropped, k.samples_fifo_overflow,
                  static_cast<unsigned long long>(imu.bus_tx_dropped()), k.commands_ok, k.commands_rejected);
   } catch (const std::exception& e) {
     std::cerr << "imuforge-vimu: " << e.what() << "\n";
