@@ -248,6 +248,35 @@ class ShiftedReference {
       if (std::fabs(b.f[k] - a.f[k]) > 0.5 || std::fabs(b.w[k] - a.w[k]) > 0.2) return true;
     return false;
   }
+  // A tenth of that: the reference holds still between two rows.
+  static bool quiet(const Ref& a, const Ref& b) {
+    for (int k = 0; k < 3; ++k)
+      if (std::fabs(b.f[k] - a.f[k]) > 0.05 || std::fabs(b.w[k] - a.w[k]) > 0.02) return false;
+    return true;
+  }
+
+ public:
+  // True when an isolated step of the reference (a jump between two rows, still on both sides) lies within
+  // one sample interval of tq: the output sample read there shows the old or the new pose depending on
+  // where in the row interval the change fell, which no timing model can say, and its central-difference
+  // derivative is the step over two samples, not a rate. Such samples are left out (shifted or not).
+  bool near_step(double tq) const {
+    if (ref_.size() < 2) return false;
+    const double eps = 1e-6 * h_;
+    auto it = std::lower_bound(ref_.begin(), ref_.end(), tq - h_ - eps, [](const Ref& r, double t) { return r.t_s < t; });
+    if (it != ref_.begin()) --it;
+    for (; it + 1 != ref_.end() && it->t_s < tq + h_ - eps; ++it) {
+      const Ref& a = *it;
+      const Ref& b = *(it + 1);
+      if (!(b.t_s > tq - h_ + eps) || !jump(a, b)) continue;
+      const bool still_before = it == ref_.begin() || quiet(*(it - 1), a);
+      const bool still_after = it + 2 == ref_.end() || quiet(b, *(it + 2));
+      if (still_before && still_after) return true;
+    }
+    return false;
+  }
+
+ private:
   SampleSource& src_;
   double ahead_, hist_, h_, gap_;
   std::deque<Sample> q_;
@@ -442,16 +471,12 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       // Per sensor: the reference at the sensor's shifted time (identical to `in` without a shift).
       model::MeasureInput ins[2] = {in, in};
       double us[kNumAxes];
-      // An instantaneous pose change (a step: a large change into this sample, none out of it): the first
-      // sample of the new pose reads the old or the new pose depending on where in the sample interval the
-      // change fell and on a sub-sample latency, which no timing model can say. It is left out.
-      bool step_in = false, quiet_out = true;
-      if (have_prev && prev.has_ref && have_next && nxt.has_ref)
-        for (int k = 0; k < 3; ++k) {
-          if (std::fabs(cur.f[k] - prev.f[k]) > 0.5 || std::fabs(cur.w[k] - prev.w[k]) > 0.2) step_in = true;
-          if (std::fabs(nxt.f[k] - cur.f[k]) > 0.05 || std::fabs(nxt.w[k] - cur.w[k]) > 0.02) quiet_out = false;
-        }
-      if (step_in && quiet_out) {
+      // An instantaneous pose change within a sample of the time each sensor reads its input (the logged
+      // time, or the shifted one once its timing is re-evaluated): the sample on either side of the step is
+      // left out (ShiftedReference::near_step says why).
+      bool at_step = false;
+      for (int s = 0; s < 2; ++s) at_step |= src.near_step(cur.t_s - shift[s].at(in.t_s));
+      if (at_step) {
         // last_seg / last_had_ref keep the previous sample's: the next one still starts a new segment.
         prev = cur;
         have_prev = true;
@@ -813,7 +838,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   const double D_log = std::max(R.duration_s, 1e-9);
   for (int a = 0; a < kNumAxes; ++a) {
     const auto ua = static_cast<std::size_t>(a);
-    StochasticModel m = R.allan[ua].size() >= 2 ? fit_stochastic_model(R.allan[ua]) : StochasticModel{};
+    StochasticModel m = R.allan[ua].size() >= 2 ? fit_stochastic_model(R.allan[ua], D_log) : StochasticModel{};
     // Never below the white level implied by the data's sample-to-sample scatter (guards a degenerate fit).
     if (p1.ndz > 0) {
       const double wvar = 0.5 * p1.dz2[ua] / (2.0 * static_cast<double>(p1.ndz));
@@ -822,8 +847,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     m.N = std::max(m.N, 1e-300);
     R.stoch[ua] = m;
     if (std::getenv("IMUFORGE_DIAG_TRACE"))
-      std::fprintf(stderr, "noise %s: N=%.3g Q=%.3g gm=%.3g/%.3gs K=%.3g (%d pts)\n", axis_name(a), m.N, m.Q, m.gm_sigma, m.gm_tau_s, m.K,
-                   m.n_points);
+      std::fprintf(stderr, "noise %s: N=%.3g Q=%.3g gm=%.3g/%.3gs flickerB=%.3g K=%.3g (%d pts)\n", axis_name(a), m.N, m.Q, m.gm_sigma,
+                   m.gm_tau_s, m.flicker_B, m.K, m.n_points);
     R.rw_prior_var[ua] = m.K * m.K * D_log / 6.0;  // a random walk's offset from its mean over the log
   }
   for (auto& b : blocks) {
@@ -918,34 +943,67 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     ad.Xr = ad.X;
     ad.zr = ad.z;
     ad.vr = ad.v;
-    // GLS: whiten each segment's block means by the Kalman filter over the correlated bias states. Units are
-    // contiguous in `blocks` and never straddle folds, so the fold sums below stay exact.
-    for (int b0 = 0; b0 < B;) {
-      int b1 = b0;
-      while (b1 < B && blocks[static_cast<std::size_t>(b1)].unit == blocks[static_cast<std::size_t>(b0)].unit) ++b1;
-      const int n = b1 - b0;
-      std::vector<double> tm(static_cast<std::size_t>(n)), du(static_cast<std::size_t>(n));
-      Eigen::MatrixXd rows(n, P + 1), innov(n, P + 1);
-      Eigen::VectorXd S(n);
-      for (int i = 0; i < n; ++i) {
-        const Block& bl = blocks[static_cast<std::size_t>(b0 + i)];
-        tm[static_cast<std::size_t>(i)] = bl.t;
-        du[static_cast<std::size_t>(i)] = static_cast<double>(bl.n) / p0.fs;
-        rows(i, 0) = ad.zr[b0 + i];
-        rows.row(i).tail(P) = ad.Xr.row(b0 + i);
+    // GLS: whiten the block means, in time order over the whole log, by the Kalman filter over the
+    // correlated bias states. The bias wander is one process across segments: flicker states of hours
+    // carry from one pose to the next, so a pose's offset is judged against its neighbours', not as a
+    // fresh random bias per segment (which would hide every pose-dependent effect in short dwells).
+    // Whitened rows of one filter run cannot simply be left out by fold (the filter used the withheld blocks
+    // to predict the others; without them, e.g. the first block's absolute information on the bias is
+    // gone), so each fold's training sums come from their own run that treats the fold's blocks as missing:
+    // fit_axis on "all but fold k" (H − Hk[k]) is then the exact GLS fit on the training blocks.
+    {
+      std::vector<double> tm(static_cast<std::size_t>(B)), du(static_cast<std::size_t>(B));
+      Eigen::MatrixXd rows(B, P + 1), innov(B, P + 1);
+      Eigen::VectorXd S(B);
+      for (int b = 0; b < B; ++b) {
+        const Block& bl = blocks[static_cast<std::size_t>(b)];
+        tm[static_cast<std::size_t>(b)] = bl.t;
+        du[static_cast<std::size_t>(b)] = static_cast<double>(bl.n) / p0.fs;
+        rows(b, 0) = ad.zr[b];
+        rows.row(b).tail(P) = ad.Xr.row(b);
       }
-      whiten_segment(R.stoch[static_cast<std::size_t>(a)], tm, du, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S);
-      for (int i = 0; i < n; ++i) {
-        ad.z[b0 + i] = innov(i, 0);
-        ad.X.row(b0 + i) = innov.row(i).tail(P);
-        ad.v[b0 + i] = S[i];
+      const StochasticModel& sm = R.stoch[static_cast<std::size_t>(a)];
+      const double rw0 = R.rw_prior_var[static_cast<std::size_t>(a)];
+      auto sums = [&](const std::vector<char>* missing, Eigen::MatrixXd& H, Eigen::VectorXd& g, double& q) {
+        whiten_segment(sm, tm, du, rows, rw0, innov, S, missing);
+        H = Eigen::MatrixXd::Zero(P, P);
+        g = Eigen::VectorXd::Zero(P);
+        q = 0;
+        for (int b = 0; b < B; ++b) {
+          if (missing && (*missing)[static_cast<std::size_t>(b)]) continue;
+          const double w = 1.0 / S[b];
+          Eigen::VectorXd x = innov.row(b).tail(P).transpose();
+          H.selfadjointView<Eigen::Lower>().rankUpdate(x, w);
+          g += w * innov(b, 0) * x;
+          q += w * innov(b, 0) * innov(b, 0);
+        }
+        H = H.selfadjointView<Eigen::Lower>();
+      };
+      estimator::NormalEquations& tot = ad.ne.total;
+      sums(nullptr, tot.info, tot.rhs, tot.cost);
+      tot.n_obs = B;
+      for (int b = 0; b < B; ++b) {
+        ad.z[b] = innov(b, 0);
+        ad.X.row(b) = innov.row(b).tail(P);
+        ad.v[b] = S[b];
+        const auto k = static_cast<std::size_t>(blocks[static_cast<std::size_t>(b)].fold);
+        ad.ne.weight[k] += 1.0 / S[b];
+        ad.ne.fold[k].n_obs += 1;
       }
-      b0 = b1;
+      std::vector<char> missing(static_cast<std::size_t>(B));
+      for (int k = 0; k < folds; ++k) {
+        for (int b = 0; b < B; ++b) missing[static_cast<std::size_t>(b)] = blocks[static_cast<std::size_t>(b)].fold == k;
+        Eigen::MatrixXd Ht;
+        Eigen::VectorXd gt;
+        double qt = 0;
+        sums(&missing, Ht, gt, qt);
+        estimator::NormalEquations& fk = ad.ne.fold[static_cast<std::size_t>(k)];
+        fk.info = tot.info - Ht;
+        fk.rhs = tot.rhs - gt;
+        fk.cost = tot.cost - qt;
+      }
     }
-    for (int b = 0; b < B; ++b) {
-      ad.ne.add_row(blocks[static_cast<std::size_t>(b)].fold, ad.X.row(b).transpose(), ad.z[b], 1.0 / ad.v[b]);
-    }
-    ad.ne.finish();
+    // The folds were set as complements of exact training runs (above), not summed rows: no finish().
   }
 
   // ---- The same design aggregated per segment (unit): the gap is scored on withheld whole segments, whose

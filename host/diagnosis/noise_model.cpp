@@ -15,9 +15,30 @@ double gauss_markov_avar(double tau_s, double T_s) {
   return 2.0 / x * (1.0 - (3.0 - 4.0 * std::exp(-x) + std::exp(-2.0 * x)) / (2.0 * x));
 }
 
+std::vector<double> flicker_bank_taus(double T_lo_s, double T_hi_s) {
+  std::vector<double> out;
+  if (!(T_lo_s > 0) || !(T_hi_s > T_lo_s)) return out;
+  for (double T = T_lo_s; out.empty() || out.back() < T_hi_s; T *= 4.0) out.push_back(T);
+  return out;
+}
+
+double flicker_bank_avar(double tau_s, const std::vector<double>& bank_tau_s) {
+  double s = 0;
+  for (double T : bank_tau_s) s += gauss_markov_avar(tau_s, T);
+  return s;
+}
+
 double StochasticModel::avar(double tau_s) const {
   return 3.0 * Q * Q / (tau_s * tau_s) + N * N / tau_s + gm_sigma * gm_sigma * gauss_markov_avar(tau_s, gm_tau_s) +
-         K * K * tau_s / 3.0;
+         bank_sigma * bank_sigma * flicker_bank_avar(tau_s, bank_tau_s) + K * K * tau_s / 3.0;
+}
+
+std::vector<std::pair<double, double>> StochasticModel::gm_states() const {
+  std::vector<std::pair<double, double>> out;
+  if (gm_tau_s > 0 && gm_sigma > 0) out.push_back({gm_sigma * gm_sigma, gm_tau_s});
+  if (bank_sigma > 0)
+    for (double T : bank_tau_s) out.push_back({bank_sigma * bank_sigma, T});
+  return out;
 }
 
 double StochasticModel::white_var(double tau_s) const {
@@ -26,7 +47,7 @@ double StochasticModel::white_var(double tau_s) const {
   return N * N / tau_s + 3.0 * Q * Q / (tau_s * tau_s);
 }
 
-StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>& pts) {
+StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>& pts, double horizon_s) {
   StochasticModel best;
   best.n_points = static_cast<int>(pts.size());
   if (pts.empty()) return best;
@@ -35,25 +56,40 @@ StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>&
     tmin = std::min(tmin, p.tau_s);
     tmax = std::max(tmax, p.tau_s);
   }
-  // Basis: 0 Q (3/τ²), 1 N (1/τ), 2 GM (unit-variance GM Allan curve at T), 3 K (τ/3).
+  // Basis: 0 Q (3/τ²), 1 N (1/τ), 2 GM (unit-variance GM Allan curve at T), 3 K (τ/3), 4 flicker bank
+  // (unit-variance states from a lower corner to the horizon: 1/f has no upper corner a static record could
+  // show, so the floor is assumed to continue over the whole log, as IEEE 952's B does). The grid value T is
+  // the GM's correlation time and, for flicker, its lower corner (T = 0: the shortest cluster time): a
+  // flicker that only starts at seconds looks like a GM bump over a short record, and must not lose to one.
+  const double T_hi = std::max(horizon_s, 4.0 * tmax);
   std::vector<double> grid{0.0};
   const int kGrid = 18;
   for (int i = 0; i < kGrid; ++i) grid.push_back(tmin * std::pow(4.0 * tmax / tmin, static_cast<double>(i) / (kGrid - 1)));
   double best_chi2 = std::numeric_limits<double>::infinity();
   for (double T : grid) {
-    auto basis = [T](int t, double tau) {
+    const std::vector<double> bank = flicker_bank_taus(T > 0 ? T : tmin, T_hi);
+    std::vector<double> bank_avar(pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i) bank_avar[i] = flicker_bank_avar(pts[i].tau_s, bank);
+    auto basis = [&, T](int t, double tau) {
       switch (t) {
         case 0: return 3.0 / (tau * tau);
         case 1: return 1.0 / tau;
         case 2: return gauss_markov_avar(tau, T);
-        default: return tau / 3.0;
+        case 3: return tau / 3.0;
+        default: {
+          // the points' own τ come back here: look their bank value up (the bank sum is the costly part)
+          for (std::size_t i = 0; i < pts.size(); ++i)
+            if (pts[i].tau_s == tau) return bank_avar[i];
+          return flicker_bank_avar(tau, bank);
+        }
       }
     };
-    for (unsigned subset = 1; subset < 16; ++subset) {
+    for (unsigned subset = 1; subset < 32; ++subset) {
       if ((subset & 0x4) && T == 0.0) continue;
-      if (!(subset & 0x4) && T != 0.0) continue;  // non-GM subsets once only
+      if (!(subset & 0x14) && T != 0.0) continue;  // subsets without a slow term once only
+      if ((subset & 0x10) && bank.empty()) continue;
       std::vector<int> terms;
-      for (int t = 0; t < 4; ++t)
+      for (int t = 0; t < 5; ++t)
         if (subset & (1u << t)) terms.push_back(t);
       const int p = static_cast<int>(terms.size());
       if (p > static_cast<int>(pts.size())) continue;
@@ -65,8 +101,12 @@ StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>&
       // Each term beyond white noise must pay for itself clearly (Δχ² > 10 each, p ≈ 0.002; the GM's
       // correlation time counts as a further parameter), so a short white record gets no phantom drift
       // that would then swallow real effects as "noise".
-      const int extra_terms = p - ((subset & 0x2) ? 1 : 0);
-      const double crit = chi2 + 10.0 * extra_terms + (T > 0 ? 5.0 : 0.0);
+      // Flicker is the exception: every inertial sensor has a bias instability, and its floor usually sits
+      // below the white noise over the τ a static dwell reaches, so it is rarely "significant" there. It is
+      // kept at whatever positive level the curve supports: a small flicker term costs little power, a
+      // missing one lets the hour-scale wander it implies read as a thermal effect.
+      const int extra_terms = p - ((subset & 0x2) ? 1 : 0) - ((subset & 0x10) ? 1 : 0);
+      const double crit = chi2 + 10.0 * extra_terms + (T > 0 ? 5.0 : 0.0);  // T > 0: a GM or flicker corner
       if (crit < best_chi2) {
         best_chi2 = crit;
         StochasticModel m;
@@ -77,7 +117,15 @@ StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>&
             case 0: m.Q = std::sqrt(c[i]); break;
             case 1: m.N = std::sqrt(c[i]); break;
             case 2: m.gm_sigma = std::sqrt(c[i]); m.gm_tau_s = T; break;
-            default: m.K = std::sqrt(c[i]); break;
+            case 3: m.K = std::sqrt(c[i]); break;
+            default: {
+              m.bank_sigma = std::sqrt(c[i]);
+              m.bank_tau_s = bank;
+              // B from the bank's Allan floor inside its span (flat to a few % there).
+              const double floor = flicker_bank_avar(std::sqrt(bank.front() * bank.back()), bank);
+              m.flicker_B = std::sqrt(c[i] * floor * M_PI / (2.0 * std::log(2.0)));
+              break;
+            }
           }
         }
         best = m;
@@ -104,36 +152,48 @@ void gm_block(double d, double T, double& alpha, double& vm) {
 
 void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                     const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, Eigen::Ref<Eigen::MatrixXd> innov,
-                    Eigen::Ref<Eigen::VectorXd> S) {
+                    Eigen::Ref<Eigen::VectorXd> S, const std::vector<char>* missing) {
   const int n = static_cast<int>(rows.rows()), c = static_cast<int>(rows.cols());
-  const double s2 = m.gm_tau_s > 0 ? m.gm_sigma * m.gm_sigma : 0.0;
-  // State [GM bias, RW bias]; one mean column per data column (the filter is linear in the data).
-  Eigen::Matrix2d P = Eigen::Matrix2d::Zero();
-  P(0, 0) = s2;
-  P(1, 1) = std::max(rw_prior_var, 0.0);
-  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(2, c);
+  // State [GM biases (single GM, flicker bank)..., RW bias]; one mean column per data column (the filter is
+  // linear in the data).
+  const std::vector<std::pair<double, double>> gm = m.gm_states();
+  const int G = static_cast<int>(gm.size()), NS = G + 1;
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(NS, NS);
+  for (int g = 0; g < G; ++g) P(g, g) = gm[static_cast<std::size_t>(g)].first;
+  P(G, G) = std::max(rw_prior_var, 0.0);
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(NS, c);
+  Eigen::VectorXd phi(NS), h(NS);
   for (int i = 0; i < n; ++i) {
     if (i > 0) {
       const double dt = std::max(t_s[static_cast<std::size_t>(i)] - t_s[static_cast<std::size_t>(i - 1)], 0.0);
-      const double phi = s2 > 0 ? std::exp(-dt / m.gm_tau_s) : 0.0;
-      M.row(0) *= phi;
-      P(0, 0) *= phi * phi;
-      P(0, 1) *= phi;
-      P(1, 0) *= phi;
-      P(0, 0) += s2 * (1.0 - phi * phi);
-      P(1, 1) += m.K * m.K * dt;
+      for (int g = 0; g < G; ++g) phi[g] = std::exp(-dt / gm[static_cast<std::size_t>(g)].second);
+      phi[G] = 1.0;
+      M = phi.asDiagonal() * M;
+      P = phi.asDiagonal() * P * phi.asDiagonal();
+      for (int g = 0; g < G; ++g) P(g, g) += gm[static_cast<std::size_t>(g)].first * (1.0 - phi[g] * phi[g]);
+      P(G, G) += m.K * m.K * dt;
+    }
+    if (missing && (*missing)[static_cast<std::size_t>(i)]) {
+      innov.row(i).setZero();
+      S[i] = 1.0;
+      continue;
     }
     const double d = std::max(dur_s[static_cast<std::size_t>(i)], 1e-9);
-    double alpha = 1.0, vm = 1.0;
-    if (s2 > 0) gm_block(d, m.gm_tau_s, alpha, vm);
-    const double R = std::max(m.white_var(d) + s2 * std::max(vm - alpha * alpha, 0.0), 1e-300);
-    const Eigen::Vector2d h(alpha, 1.0);
-    const double hPh = h.dot(P * h);
-    const double Si = hPh + R;
-    Eigen::RowVectorXd nu = rows.row(i) - (alpha * M.row(0) + M.row(1));
+    double R = m.white_var(d);
+    for (int g = 0; g < G; ++g) {
+      double alpha = 1.0, vm = 1.0;
+      gm_block(d, gm[static_cast<std::size_t>(g)].second, alpha, vm);
+      h[g] = alpha;
+      R += gm[static_cast<std::size_t>(g)].first * std::max(vm - alpha * alpha, 0.0);
+    }
+    h[G] = 1.0;
+    R = std::max(R, 1e-300);
+    const Eigen::VectorXd Ph = P * h;
+    const double Si = h.dot(Ph) + R;
+    Eigen::RowVectorXd nu = rows.row(i) - h.transpose() * M;
     innov.row(i) = nu;
     S[i] = Si;
-    Eigen::Vector2d Kg = P * h / Si;
+    const Eigen::VectorXd Kg = Ph / Si;
     M += Kg * nu;
     P -= Kg * Kg.transpose() * Si;
     P = 0.5 * (P + P.transpose());
@@ -143,11 +203,11 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
 double block_covariance(const StochasticModel& m, double ti, double di, double tj, double dj, bool same, double t_start,
                         double rw_prior_var) {
   double c = 0;
-  if (m.gm_tau_s > 0) {
+  for (const auto& [s2, T] : m.gm_states()) {
     double ai = 1, vi = 1, aj = 1, vj = 1;
-    gm_block(std::max(di, 1e-9), m.gm_tau_s, ai, vi);
-    gm_block(std::max(dj, 1e-9), m.gm_tau_s, aj, vj);
-    c += m.gm_sigma * m.gm_sigma * (same ? vi : ai * aj * std::exp(-std::fabs(ti - tj) / m.gm_tau_s));
+    gm_block(std::max(di, 1e-9), T, ai, vi);
+    gm_block(std::max(dj, 1e-9), T, aj, vj);
+    c += s2 * (same ? vi : ai * aj * std::exp(-std::fabs(ti - tj) / T));
   }
   c += rw_prior_var + m.K * m.K * std::max(0.0, std::min(ti, tj) - t_start);
   if (same) c += m.white_var(std::max(std::min(di, dj), 1e-9));

@@ -1,14 +1,19 @@
 // The stochastic model the diagnosis carries into its likelihood (docs/diagnosis.md § 2).
 //
 // Per axis: white noise N, quantization Q, one first-order Gauss-Markov bias (stationary σ, correlation
-// time T: what a bias instability looks like over the minutes a calibration lasts) and a rate random walk
-// K. It is fitted to the Allan variance of the static dwells FIRST, before any deterministic effect is
+// time T: what a bias instability looks like over the minutes a calibration lasts), flicker (1/f) bias noise
+// and a rate random walk K. Flicker is a bank of Gauss-Markov states of one common σ with correlation times
+// a factor 4 apart, from the shortest Allan cluster time up to the log duration: its Allan deviation is flat
+// (the IEEE 952 bias-instability floor) over that whole range, so a floor seen in static dwells of a minute
+// is carried, as 1/f noise does, into the bias wander between plateaus an hour apart. One GM term fitted to
+// those dwells would stop at a few minutes and leave the slower wander to read as temp_rate/hysteresis. It is fitted to the Allan variance of the static dwells FIRST, before any deterministic effect is
 // tested. Then the block means of a segment are whitened by a Kalman filter that carries the Gauss-Markov
 // and random-walk bias as states: generalised least squares, exactly, in O(blocks · parameters). A slow
 // drift therefore enters the likelihood as correlated noise and cannot masquerade as a deterministic
 // effect; the blocks of one segment are no longer counted as independent evidence.
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -23,6 +28,9 @@ struct StochasticModel {
   double gm_sigma = 0; // Gauss-Markov stationary σ, unit
   double gm_tau_s = 0; // its correlation time, s (0 = none)
   double K = 0;        // rate random walk, unit·√Hz
+  double flicker_B = 0;               // flicker bias instability, unit (Allan floor ≈ 0.664 B)
+  double bank_sigma = 0;              // common stationary σ of each flicker GM state, unit
+  std::vector<double> bank_tau_s;     // their correlation times, s (empty = no flicker term)
   double chi2 = 0;     // Allan-fit χ² (Σ edf/2 (AVAR − fit)²/fit²)
   int n_points = 0;
   // Allan variance of the model at cluster time tau_s.
@@ -30,25 +38,36 @@ struct StochasticModel {
   // Variance of the mean of white + quantization noise over tau_s (what a block mean carries
   // independently of its neighbours).
   double white_var(double tau_s) const;
+  // Every Gauss-Markov state of the model (the single GM first, then the flicker bank): {σ², T}.
+  std::vector<std::pair<double, double>> gm_states() const;
 };
+
+// Correlation times of a flicker bank spanning [T_lo, T_hi] (factor 4 apart, both ends covered).
+std::vector<double> flicker_bank_taus(double T_lo_s, double T_hi_s);
+// Allan variance of a bank of unit-variance GM states at those correlation times.
+double flicker_bank_avar(double tau_s, const std::vector<double>& bank_tau_s);
 
 // Allan variance of a first-order Gauss-Markov process of unit stationary variance and correlation time T.
 double gauss_markov_avar(double tau_s, double T_s);
 
-// Fits {Q, N, GM(σ, T), K} to an Allan curve: T on a log grid between the shortest and 4× the longest
-// cluster time, the amplitudes by non-negative weighted least squares (every subset), best χ² kept.
+// Fits {Q, N, GM(σ, T), flicker B, K} to an Allan curve: T on a log grid between the shortest and 4× the
+// longest cluster time, the flicker bank from the shortest cluster time to max(horizon_s, 4× the longest),
+// the amplitudes by non-negative weighted least squares (every subset), best penalised χ² kept.
+// horizon_s: the longest time scale the model must describe (the log duration).
 // Without points returns a white model with N = 0 (the caller supplies a fallback).
-StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>& pts);
+StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>& pts, double horizon_s = 0.0);
 
 // GLS whitening of one segment's block means by a Kalman filter over the bias states (GM, RW).
 // Blocks in time order: mid time t_s, duration dur_s, observation row [z | x] (1 + P columns).
 // Outputs the innovations of every column and the innovation variance S per block, so that
 //   Σ (ν_z − ν_x θ)² / S  is the exact −2 log-likelihood (up to a constant) of θ for this segment.
 // rw_prior_var: variance of the random-walk bias at the segment start (it is not known from outside).
+// missing (optional, one flag per block): blocks treated as not observed (the state is only propagated
+// across them; their innovation row is 0 and S = 1), so that a training set's GLS leaves them out exactly.
 // O(n · P).
 void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                     const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, Eigen::Ref<Eigen::MatrixXd> innov,
-                    Eigen::Ref<Eigen::VectorXd> S);
+                    Eigen::Ref<Eigen::VectorXd> S, const std::vector<char>* missing = nullptr);
 
 // Covariance of two block means of one segment under the model (mid times ti, tj, durations di, dj);
 // i == j includes the white part. Used for the variance of a segment mean.

@@ -87,6 +87,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     }
     const auto& m = r.stoch[u];
     if (m.gm_sigma > 0) line += "; drift: Gauss-Markov sigma " + fmt("%.3g", m.gm_sigma) + ", tau " + fmt("%.3g", m.gm_tau_s) + " s";
+    if (m.bank_sigma > 0) line += "; flicker bias instability B " + fmt("%.3g", m.flicker_B);
     if (m.K > 0) line += "; rate random walk " + fmt("%.3g", m.K);
     out.push_back(line);
   }
@@ -148,6 +149,9 @@ nlohmann::json to_json(const DiagnosisResult& r) {
   for (int a = 0; a < kNumAxes; ++a) {
     const auto& m = r.stoch[static_cast<std::size_t>(a)];
     if (m.gm_sigma > 0) ss.push_back({{"effect", "gauss_markov"}, {"axis", axis_name(a)}, {"sigma", num(m.gm_sigma)}, {"tau_s", num(m.gm_tau_s)}});
+    if (m.bank_sigma > 0)
+      ss.push_back({{"effect", "flicker"}, {"axis", axis_name(a)}, {"value", num(m.flicker_B)},
+                    {"tau_min_s", num(m.bank_tau_s.front())}, {"tau_max_s", num(m.bank_tau_s.back())}});
     if (m.K > 0) ss.push_back({{"effect", "rate_random_walk"}, {"axis", axis_name(a)}, {"value", num(m.K)}});
     if (m.Q > 0) ss.push_back({{"effect", "quantization"}, {"axis", axis_name(a)}, {"value", num(m.Q)}});
   }
@@ -179,7 +183,8 @@ nlohmann::json to_json(const DiagnosisResult& r) {
     noise[axis_name(a)] = {{"Q", num(t.Q)}, {"N", num(t.N)}, {"B", num(t.B)}, {"K", num(t.K)},
                            {"claimed_N", num(r.claimed_N[u])}, {"allan", pts},
                            {"likelihood_model", {{"N", num(m.N)}, {"Q", num(m.Q)}, {"gm_sigma", num(m.gm_sigma)},
-                                                 {"gm_tau_s", num(m.gm_tau_s)}, {"K", num(m.K)}}}};
+                                                 {"gm_tau_s", num(m.gm_tau_s)}, {"flicker_B", num(m.flicker_B)},
+                                                 {"K", num(m.K)}}}};
   }
   j["noise"] = noise;
   nlohmann::json cells = nlohmann::json::array();

@@ -12,6 +12,10 @@
 
 namespace imuforge::estimator {
 
+// Filled either row by row (add_row, then finish(): total = Σ folds), or, when withholding a fold changes
+// the other rows' whitening (the diagnosis's Kalman-whitened GLS), directly: total from the all-data run and
+// fold[k] = total − (the run with fold k missing), so fit_without(k) is the exact fit on the training data
+// and the fold's own statistics score it; finish() is then not called.
 struct FoldedNormalEquations {
   std::vector<NormalEquations> fold;  // per fold (n_obs counts its rows)
   std::vector<double> weight;         // per fold Σ w (the gap's denominator: a weighted mean of r²)

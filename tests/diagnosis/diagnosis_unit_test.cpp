@@ -3,6 +3,7 @@
 #include <cmath>
 #include <random>
 
+#include "host/diagnosis/noise_model.h"
 #include "host/diagnosis/stats.h"
 #include "tests/diagnosis/sim_helpers.h"
 
@@ -52,6 +53,53 @@ TEST(DiagnosisStats, AllanOfWhiteNoiseAndRandomWalk) {
   acc2.add_series(rw);
   NoiseFit f2 = fit_noise_terms(acc2.points());
   EXPECT_NEAR(f2.terms.K, K, 0.35 * K);
+}
+
+// The likelihood's noise model (noise_model.h): a flat Allan floor seen over τ ≤ 40 s is fitted as flicker and
+// carried to the log's time scales (bias wander between blocks an hour apart), white noise is not given a
+// phantom drift, and a white model whitens to the data itself.
+TEST(DiagnosisNoiseModel, FlickerFloorIsCarriedToTheLogDuration) {
+  const double N = 2e-3, B = 5e-4, horizon_s = 5000;
+  const std::vector<double> bank = flicker_bank_taus(0.01, horizon_s);
+  ASSERT_GE(bank.size(), 8u);
+  EXPECT_GE(bank.back(), horizon_s);
+  // A flicker bank's Allan curve is flat (to a few %) inside its span.
+  const double a1 = flicker_bank_avar(1.0, bank), a100 = flicker_bank_avar(100.0, bank);
+  EXPECT_NEAR(a100 / a1, 1.0, 0.1);
+  // Exact Allan points of white + flicker at the floor 0.664 B, τ = 0.01 … 41 s (what a 160 s dwell gives).
+  const double c = (2.0 * std::log(2.0) / M_PI) * B * B / a1;
+  std::vector<AllanAccumulator::Point> pts, white;
+  for (double tau = 0.01; tau < 45; tau *= 2) {
+    pts.push_back({tau, N * N / tau + c * flicker_bank_avar(tau, bank), 200.0, 1000});
+    white.push_back({tau, N * N / tau, 200.0, 1000});
+  }
+  StochasticModel m = fit_stochastic_model(pts, horizon_s);
+  EXPECT_GT(m.bank_sigma, 0.0);
+  EXPECT_NEAR(m.flicker_B, B, 0.15 * B);
+  EXPECT_NEAR(m.N, N, 0.05 * N);
+  EXPECT_GE(m.bank_tau_s.back(), horizon_s);
+  // Two 5 s block means an hour apart still share most of the flicker wander: the offset between two poses
+  // an hour apart is noise of about the floor's size, not evidence of a thermal effect.
+  const double cov = block_covariance(m, 100.0, 5.0, 3700.0, 5.0, false, 0.0, 0.0);
+  EXPECT_GT(cov, 0.5 * (0.664 * B) * (0.664 * B));
+  // White noise alone: no phantom drift term of any kind.
+  StochasticModel w = fit_stochastic_model(white, horizon_s);
+  EXPECT_LT(w.flicker_B, 1e-3 * N);  // flicker is kept at any positive level the curve supports: here none
+  EXPECT_EQ(w.gm_sigma, 0.0);
+  EXPECT_EQ(w.K, 0.0);
+  EXPECT_NEAR(w.N, N, 1e-3 * N);
+  // A white model whitens to the data: innovations = rows, S = N²/d.
+  Eigen::MatrixXd rows(3, 2), innov(3, 2);
+  rows << 1, 2, 3, 4, 5, 6;
+  Eigen::VectorXd S(3);
+  whiten_segment(w, {0.0, 10.0, 20.0}, {4.0, 4.0, 4.0}, rows, 0.0, innov, S);
+  EXPECT_NEAR((innov - rows).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(S[1], w.N * w.N / 4.0, 1e-12 * S[1]);
+  // With flicker, later blocks are predicted from earlier ones: part of a constant offset is absorbed (white
+  // noise would leave every innovation equal to the offset).
+  Eigen::MatrixXd off = Eigen::MatrixXd::Constant(3, 1, 10.0 * B), nu(3, 1);
+  whiten_segment(m, {0.0, 10.0, 20.0}, {4.0, 4.0, 4.0}, off, 0.0, nu, S);
+  EXPECT_LT(std::fabs(nu(2, 0)), 0.75 * std::fabs(nu(0, 0)));
 }
 
 TEST(DiagnosisPipeline, FindsInjectedGSensitivityAndReportsUnexcitable) {
