@@ -100,6 +100,7 @@ struct Dir {
     std::ofstream(d / "model.json") << kModel;
   }
   ~Dir() {
+    if (getenv("EOL_KEEP")) return;
     std::error_code ec;
     fs::remove_all(d, ec);
   }
@@ -127,12 +128,31 @@ struct Lab {
   }
 };
 
+// The world a unit's stream thread is sampling (set by LabDevice::stream): the bench's clock and air read
+// from that thread are that world's, as one physical lab would give them.
+thread_local eoltest::FakeWorld* tl_world = nullptr;
+thread_local std::mutex* tl_mu = nullptr;
+
+// The bench: commands go to every world. Before each command (main thread, no stream running) the worlds
+// are brought to one clock: settling streams each unit for its own time, and one lab has one clock.
 class LabBench : public Bench {
  public:
   explicit LabBench(Lab& lab) : lab_(lab) {}
+  void sync() {
+    double tmax = 0;
+    for (std::size_t k = 0; k < lab_.w.size(); ++k) {
+      std::lock_guard<std::mutex> lk(*lab_.mu[k]);
+      tmax = std::max(tmax, lab_.w[k]->t);
+    }
+    for (std::size_t k = 0; k < lab_.w.size(); ++k) {
+      std::lock_guard<std::mutex> lk(*lab_.mu[k]);
+      if (lab_.w[k]->t < tmax) lab_.w[k]->step(tmax - lab_.w[k]->t);
+    }
+  }
   std::string describe() const override { return "fake-table + fake-chamber"; }
   template <typename F>
   void all(F&& f) {
+    sync();
     for (std::size_t k = 0; k < lab_.w.size(); ++k) {
       std::lock_guard<std::mutex> lk(*lab_.mu[k]);
       eoltest::FakeBench b(*lab_.w[k]);
@@ -141,6 +161,12 @@ class LabBench : public Bench {
   }
   template <typename F>
   auto first(F&& f) {
+    if (tl_world) {  // from a unit's stream thread: its own world
+      std::lock_guard<std::mutex> lk(*tl_mu);
+      eoltest::FakeBench b(*tl_world);
+      return f(b);
+    }
+    sync();
     std::lock_guard<std::mutex> lk(*lab_.mu[0]);
     eoltest::FakeBench b(*lab_.w[0]);
     return f(b);
@@ -167,6 +193,10 @@ class LabDevice : public Device {
   }
   StreamStats stream(double rate_hz, const std::function<bool(const ImuSample&)>& cb) override {
     StreamStats st;
+    struct Bind {
+      Bind(eoltest::FakeWorld* w, std::mutex* m) { tl_world = w, tl_mu = m; }
+      ~Bind() { tl_world = nullptr, tl_mu = nullptr; }
+    } bind(&w_, &mu_);
     for (;;) {
       ImuSample s;
       {
@@ -219,7 +249,7 @@ StationRunOptions options(const Dir& dir, const std::string& station) {
   o.out_dir = (dir.d / "run").string();
   o.campaign_path = (dir.d / "campaign.json").string();
   o.station_path = station;
-  o.threads = 2;
+  o.threads = getenv("ST_THREADS") ? atoi(getenv("ST_THREADS")) : 2;
   o.progress = nullptr;
   return o;
 }
