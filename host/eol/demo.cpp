@@ -175,7 +175,7 @@ int run_demo(const DemoOptions& opt) {
 
   char ts[32];
   std::snprintf(ts, sizeof ts, "%g", opt.time_scale);
-  std::vector<std::string> sim_argv{opt.self_exe, "bench-sim", "--tcp-port", "0", "--time-scale", ts, "--campaign", campaign,
+  std::vector<std::string> sim_argv{opt.self_exe, "bench-sim", "--tcp-port", std::to_string(opt.tcp_port), "--time-scale", ts, "--campaign", campaign,
                                     "--sensor", sensor, "--bus", bus, "--seed", "1"};
   // The station figures run N = 1 through the multi-unit runner too (a one-slot station), to compare.
   const bool multi = opt.slots > 1 || opt.stats != nullptr;

@@ -27,6 +27,8 @@ struct DemoOptions {
   // bench-sim world starts again: a lab power cycle), and crash after this many steps.
   std::string resume_run_dir;
   int crash_after_steps = 0;
+  int tcp_port = 0;  // bench-sim's Modbus TCP port (0: any free one); a resumed demo needs the same station file
+
   // Filled by a multi-unit demo when set (the station figures, tests/eol/bench_station.cpp).
   struct Stats {
     int units = 0, passed = 0;

@@ -5,6 +5,9 @@
 // the batch record names every unit's record, and a crash mid-collection resumed per unit gives the
 // same records without duplicates and without re-collecting a segment.
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -41,6 +44,23 @@ DemoOptions demo_options(const fs::path& out, int slots) {
   o.slots = slots;
   o.threads = 2;
   return o;
+}
+
+// A TCP port free now (bound to 0, then released): the crashed and the resumed demo serve bench-sim on
+// the same port, so their station files are identical (the resume checks the station file's SHA-256).
+int free_port() {
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof a;
+  if (fd < 0 || bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
+      getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
+    if (fd >= 0) close(fd);
+    return 0;
+  }
+  close(fd);
+  return ntohs(a.sin_port);
 }
 
 nlohmann::json read_json(const fs::path& p) {
@@ -108,6 +128,8 @@ TEST(StationRun, CrashMidCollectionAndResumeGiveTheSameRecordsOnce) {
   DemoOptions o = demo_options(dir.d, 3);
   o.dead_slots = {2};
   o.crash_after_steps = 4;
+  o.tcp_port = free_port();
+  ASSERT_GT(o.tcp_port, 0);
   EXPECT_THROW(imuforge::eol::run_demo(o), imuforge::eol::SimulatedCrash);
   const fs::path run = dir.d / "run";
   ASSERT_TRUE(fs::exists(run / "slot01" / "journal.log"));
@@ -119,6 +141,7 @@ TEST(StationRun, CrashMidCollectionAndResumeGiveTheSameRecordsOnce) {
   DemoOptions r = demo_options(dir.d, 3);
   r.dead_slots = {2};
   r.resume_run_dir = run.string();
+  r.tcp_port = o.tcp_port;
   imuforge::eol::run_demo(r);
   expect_one_record_per_unit(dir.d, run, 3, "slot02");
   // The resumed unit replayed its safe segments instead of collecting them again.
