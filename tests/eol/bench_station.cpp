@@ -4,6 +4,7 @@
 // host), units per simulated hour = N / (campaign + finish), finish CPU per unit (solve, table, flash,
 // read back, verify, record: its thread's CPU), and this process's peak RSS (the whole station run).
 //   eol_bench_station [N list, comma separated = 1,4,8,16] [time_scale=200] [rate_hz=10] [out_dir=/tmp/imuforge-station]
+//                     [campaign=docs/examples/campaign-eol.json] [model=docs/examples/model-thermal.json]
 #include <sys/resource.h>
 
 #include <cstdio>
@@ -26,6 +27,7 @@ int main(int argc, char** argv) {
   const double scale = argc > 2 ? std::atof(argv[2]) : 200.0;
   const double rate = argc > 3 ? std::atof(argv[3]) : 10.0;
   const fs::path root = argc > 4 ? argv[4] : "/tmp/imuforge-station";
+  const std::string campaign = argc > 5 ? argv[5] : "", model = argc > 6 ? argv[6] : "";
   std::printf("| N | campaign (sim h) | collect wall s | finish wall s | units/h | finish CPU s/unit | pass | early stop | peak RSS MB |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|\n");
   for (int n : ns) {
@@ -39,6 +41,8 @@ int main(int argc, char** argv) {
     o.stream_rate_hz = rate;
     o.quiet = true;
     o.slots = n;
+    o.campaign = campaign;
+    o.model = model;
     imuforge::eol::DemoOptions::Stats st;
     o.stats = &st;
     const int code = imuforge::eol::run_demo(o);  // 0: every unit passed
