@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -395,6 +396,8 @@ StationRunResult StationRunner::run() {
     for (std::size_t i = 0; i < us.size(); ++i)
       th.emplace_back([&, i] {
         try {
+          // Staggered starts: N stream-start commands at the same instant time out on a loaded bus.
+          std::this_thread::sleep_for(std::chrono::milliseconds(15 * static_cast<int>(i)));
           body(*us[i]);
         } catch (const std::exception& e) {
           errs[i] = what + ": " + e.what();
@@ -406,13 +409,30 @@ StationRunResult StationRunner::run() {
     refresh_live();
   };
 
+  // A unit's stream; a stream that fails before its first sample (the start command timed out on a busy
+  // bus) is tried once more before the unit is failed. Nothing was received, so nothing is duplicated.
+  auto stream_unit = [&](Unit& u, const std::function<bool(const ImuSample&)>& cb) {
+    bool any = false;
+    auto wrapped = [&](const ImuSample& s) {
+      any = true;
+      return cb(s);
+    };
+    try {
+      return u.dev->stream(st.stream_rate_hz, wrapped);
+    } catch (const std::exception&) {
+      if (any) throw;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    return u.dev->stream(st.stream_rate_hz, wrapped);
+  };
+
   // Waits, from every unit's own die temperature, until the plateau is settled for each.
   auto settle_all = [&](const std::vector<Unit*>& us, int phase, double setpoint_C) {
     per_unit(us, "plateau " + std::to_string(phase) + " settling", [&](Unit& u) {
       SlopeSettleDetector det(st.settle_window_s, st.settle_slope_C_per_min / 60.0);
       double t_first = NAN, next_check = 0, air = NAN;
       bool ok = false;
-      u.dev->stream(st.stream_rate_hz, [&](const ImuSample& s) {
+      stream_unit(u, [&](const ImuSample& s) {
         if (std::isnan(t_first)) t_first = s.t_s;
         det.add(s.t_s, s.temp_C);
         const double el = s.t_s - t_first;
@@ -470,7 +490,7 @@ StationRunResult StationRunner::run() {
       io::LogWriter w(file, u.meta, io::LogEncoding::kBinary);
       std::vector<io::LogRow> rows;
       double t_first = NAN, sensor_to_fixture = 0.0;
-      const StreamStats ss = u.dev->stream(st.stream_rate_hz, [&](const ImuSample& s) {
+      const StreamStats ss = stream_unit(u, [&](const ImuSample& s) {
         if (std::isnan(t_first)) {
           t_first = s.t_s;
           if (is_rate) sensor_to_fixture = bench_call([&] { return bench_.time_s(); }) - s.t_s;
