@@ -30,7 +30,8 @@ int run_bench_sim(int argc, char** argv) {
   std::vector<std::string> buses;
   int slots = 1;
   double nest_sigma_deg = 0.0;
-  std::vector<int> dead_slots;
+  std::vector<int> dead_slots, outlier_slots;
+  std::string outlier_sensor;
   uint64_t seed = 1, serial = 1;
   int node_id = 1;
   bool no_tcp = false, stdin_eof_exits = false;
@@ -54,6 +55,8 @@ int run_bench_sim(int argc, char** argv) {
   app.add_option("--nest-error-deg", nest_sigma_deg, "1σ of each unit's rotation in its nest, per axis, drawn per slot")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--dead-slot", dead_slots, "slot (1-based) whose node never answers; repeatable");
+  app.add_option("--outlier-slot", outlier_slots, "slot (1-based) whose part is --outlier-sensor instead; repeatable");
+  app.add_option("--outlier-sensor", outlier_sensor, "sensor model JSON of the --outlier-slot parts");
   app.add_option("--seed", seed, "seed of the sensor's noise (default 1)");
   app.add_option("--serial", serial, "serial number of the virtual IMU (default 1)");
   app.add_option("--node", node_id, "CAN node id of the virtual IMU (default 1)")->check(CLI::Range(1, 127));
@@ -115,6 +118,8 @@ int run_bench_sim(int argc, char** argv) {
       plan.first_node = node_id;
       plan.nest_sigma_rad = nest_sigma_deg * M_PI / 180.0;
       plan.dead = dead_slots;
+      plan.outlier = outlier_slots;
+      plan.outlier_sensor_path = outlier_sensor;
       for (const auto& io : benchsim::slot_imus(plan)) imus.push_back(benchsim::start_imu(*bench, io));
     } catch (const std::exception& e) {
       std::fprintf(stderr, "imuforge bench-sim: virtual IMU on %s: %s\n", bus_list.c_str(), e.what());

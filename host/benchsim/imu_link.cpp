@@ -146,7 +146,9 @@ std::vector<ImuOptions> slot_imus(const SlotPlan& p) {
     if (std::find(p.dead.begin(), p.dead.end(), k + 1) != p.dead.end()) continue;
     ImuOptions o;
     o.bus = p.buses[static_cast<std::size_t>(k) % p.buses.size()];
-    o.sensor_path = p.sensor_path;
+    const bool odd = std::find(p.outlier.begin(), p.outlier.end(), k + 1) != p.outlier.end();
+    if (odd && p.outlier_sensor_path.empty()) throw std::invalid_argument("bench-sim slots: --outlier-slot needs --outlier-sensor");
+    o.sensor_path = odd ? p.outlier_sensor_path : p.sensor_path;
     o.seed = p.seed + static_cast<uint64_t>(k);
     o.serial = p.first_serial + static_cast<uint64_t>(k);
     o.node_id = p.first_node + k;

@@ -62,6 +62,10 @@ struct SlotPlan {
   int first_node = 1;
   double nest_sigma_rad = 0.0;
   std::vector<int> dead;
+  // Slots (1-based) whose part is another sensor model (a unit far from the batch, for the outlier
+  // marks of docs/eol.md "Batches"); outlier_sensor_path must then be set.
+  std::vector<int> outlier;
+  std::string outlier_sensor_path;
 };
 std::vector<ImuOptions> slot_imus(const SlotPlan& plan);
 

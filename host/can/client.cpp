@@ -354,7 +354,15 @@ void Client::start_stream(std::uint16_t rate_hz, std::uint8_t channels, StreamDe
 }
 
 std::uint32_t Client::stop_stream(int drain_ms) {
-  const auto r = request({proto::kCmdStreamStop});
+  std::vector<std::uint8_t> r;
+  try {
+    r = request({proto::kCmdStreamStop});
+  } catch (...) {
+    // The decoder's callback usually points into the caller's stack (eol::CanDevice::stream): it must
+    // not outlive a failed stop, or frames still arriving would be delivered into freed memory.
+    t_->set_decoder(nullptr);
+    throw;
+  }
   // Drain until the stream has been quiet for drain_ms (at most 20 × drain_ms): on a loaded host the
   // frames the node sent before it stopped can still be queued in the socket well after its answer.
   const auto t_end = Clock::now() + std::chrono::milliseconds(20 * drain_ms);

@@ -16,6 +16,7 @@
 
 #include "host/eol/passfail.h"
 #include "host/eol/report.h"
+#include "host/eol/schedule.h"
 #include "host/io/log.h"
 #include "host/solver/consider.h"
 #include "host/solver/fixture.h"
@@ -53,17 +54,9 @@ void solve_one(const BatchUnit& u, const StationConfig& st, const model::ModelSp
   out.log_path = u.log_path;
   try {
     // The unit's nest: its nominal mount and lever arm, and its own mount tolerance.
-    const StationSlot* sl = st.slot(u.slot);
     physics::Campaign c = camp;
     StationConfig s = st;
-    if (sl && sl->has_geometry) {
-      c.mount_rotation_deg = sl->mount_rotation_deg;
-      c.lever_arm_m = sl->lever_arm_m;
-    }
-    if (sl && sl->mount_sigma_deg[0] >= 0) {
-      if (!s.fixture_tolerance.is_object()) s.fixture_tolerance = nlohmann::json::object();
-      s.fixture_tolerance["mount_sigma_deg"] = sl->mount_sigma_deg;
-    }
+    if (st.slot(u.slot)) narrow_to_slot(s, c, u.slot);  // the same narrowing as the live station runner
     UnitSolve us = solve_unit_log(u.log_path, s, spec, c);
     out.estimate = std::move(us.estimate);
     out.sigma_noise = std::move(us.sigma_noise);
@@ -211,9 +204,15 @@ std::string record_batch(records::RecordStore& store, const BatchOutcome& b, con
   };
   records::BatchRecord br;
   stamp(br);
+  br.id = prov.batch_id;
   br.units_passed = b.passed;
   for (const auto& u : b.units) {
+    if (u.recorded) {
+      br.units.push_back({u.slot, u.serial, u.record_id, u.pass, u.reasons, u.outliers});
+      continue;
+    }
     records::CalibrationRecord rec;
+    rec.id = u.record_id;
     stamp(rec);
     rec.serial = u.serial;
     rec.fixture = u.slot;

@@ -53,6 +53,11 @@ struct UnitOutcome {
   std::vector<std::string> outliers;   // parameters far from the batch (suspicious even when passing)
   double cpu_s = 0.0;                  // CPU time of this unit's solve (its thread)
   nlohmann::json cal;                  // the unit's cal.json
+  // The unit's calibration record id. recorded = true: already in the store (the live station runner's
+  // per-unit record), the batch only names it; false: record_batch inserts the unit's record under this
+  // id (a new one when empty).
+  std::string record_id;
+  bool recorded = false;
 };
 
 struct ParameterSpread {
@@ -96,6 +101,7 @@ std::string render_batch_report(const BatchOutcome& b, const std::string& title)
 // them. Returns the batch id. Throws records::RecordError.
 struct BatchProvenance {
   std::string station, campaign, campaign_sha256, started_utc, finished_utc;
+  std::string batch_id;  // "" = a new id
 };
 std::string record_batch(records::RecordStore& store, const BatchOutcome& b, const StationConfig& st,
                          const BatchProvenance& prov);

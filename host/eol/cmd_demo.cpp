@@ -27,6 +27,11 @@ int run_demo_cmd(int argc, char** argv) {
   app.add_option("--examples", o.examples_dir, "docs/examples folder (default: found from the build tree)");
   app.add_flag("--full-schedule", full, "do not stop early when every sigma meets its spec");
   app.add_flag("--quiet", o.quiet, "no progress display");
+  app.add_option("--slots", o.slots, "units on the station (default 1; > 1: the multi-unit runner, docs/eol.md)")
+      ->check(CLI::Range(1, 127));
+  app.add_option("--dead-slot", o.dead_slots, "slot (1-based) whose node never answers; repeatable");
+  app.add_option("--outlier-slot", o.outlier_slots, "slot (1-based) whose part has accel.scale.x 0.015 off the others");
+  app.add_option("--threads", o.threads, "finish threads of a multi-unit run (default: the CPUs)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

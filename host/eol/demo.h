@@ -4,6 +4,7 @@
 // stops the bench and prints where the report is. docs/eol.md "Demo".
 #pragma once
 #include <string>
+#include <vector>
 
 namespace imuforge::eol {
 
@@ -17,6 +18,25 @@ struct DemoOptions {
   double stream_rate_hz = 10.0;             // samples per SIMULATED second
   bool early_stop = true;
   bool quiet = false;
+  // Multi-unit station (slots > 1): bench-sim serves `slots` virtual IMUs (nodes 1..slots, serials
+  // 1..slots), the dead ones never answer, the outlier ones are another part (accel.scale.x + 0.015).
+  int slots = 1;
+  std::vector<int> dead_slots, outlier_slots;
+  int threads = 0;
+  // Test hooks (multi-unit only): resume this earlier demo run folder instead of a new one (the same
+  // bench-sim world starts again: a lab power cycle), and crash after this many steps.
+  std::string resume_run_dir;
+  int crash_after_steps = 0;
+  int tcp_port = 0;  // bench-sim's Modbus TCP port (0: any free one); a resumed demo needs the same station file
+
+  // Filled by a multi-unit demo when set (the station figures, tests/eol/bench_station.cpp).
+  struct Stats {
+    int units = 0, passed = 0;
+    double campaign_time_s = 0.0;  // simulated fixture seconds of the collection
+    double collect_wall_s = 0.0, finish_wall_s = 0.0;
+    bool early_stopped = false;
+    std::vector<double> finish_cpu_s;  // per unit
+  }* stats = nullptr;
 };
 
 // Returns an exit code of host/app/command.h (0 PASS, 1 FAIL/bad input, 3 peer failure).

@@ -15,6 +15,7 @@
 #include "host/eol/passfail.h"
 #include "host/eol/progress.h"
 #include "host/eol/report.h"
+#include "host/eol/schedule.h"
 #include "host/eol/settle.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
@@ -30,7 +31,6 @@ using nlohmann::json;
 
 namespace imuforge::eol {
 
-std::string step_key(int phase, int step) { return "p" + std::to_string(phase) + "s" + std::to_string(step); }
 
 namespace {
 
@@ -50,59 +50,11 @@ auto peer(const std::string& what, F&& f) -> decltype(f()) {
   }
 }
 
-physics::TableGeometry geometry_of(const physics::Campaign& c) {
-  // See the eol -> sim request: mount_rotation_deg is the IMU's attitude in the platform frame.
-  physics::TableGeometry g;
-  g.n_axes = static_cast<int>(c.axes.size());
-  for (std::size_t i = 0; i < c.axes.size() && i < 3; ++i) {
-    g.axes[i].name = c.axes[i].name;
-    g.axes[i].axis_nominal = physics::axis_from_name(c.axes[i].axis);
-  }
-  g.mount.C_imu_plat =
-      physics::rotation_zyx_deg(c.mount_rotation_deg[0], c.mount_rotation_deg[1], c.mount_rotation_deg[2]).transpose();
-  g.mount.lever_arm_m = Eigen::Vector3d(c.lever_arm_m[0], c.lever_arm_m[1], c.lever_arm_m[2]);
-  return g;
-}
-
-struct Kin {
-  physics::TableGeometry geom;
-  Eigen::Vector3d g_ned, wie_ned;
-  physics::ImuKinematics at(const std::array<double, 3>& angle_deg, const std::array<double, 3>& rate_dps) const {
-    physics::TableState st;
-    for (int i = 0; i < 3; ++i) {
-      st.angle_rad[static_cast<std::size_t>(i)] = angle_deg[static_cast<std::size_t>(i)] * kDeg;
-      st.rate_rad_s[static_cast<std::size_t>(i)] = rate_dps[static_cast<std::size_t>(i)] * kDeg;
-    }
-    return physics::table_kinematics(geom, st, g_ned, wie_ned);
-  }
-};
-
-bool is_vertical_rotation(const Kin& k, const std::array<double, 3>& angle_deg, const std::array<double, 3>& rate_dps) {
-  // The reference f stays constant in a rate run when the rotation is about the local vertical: check f
-  // a quarter turn later.
-  auto a = k.at(angle_deg, rate_dps);
-  std::array<double, 3> later = angle_deg;
-  for (int i = 0; i < 3; ++i) later[static_cast<std::size_t>(i)] += 90.0 * (rate_dps[static_cast<std::size_t>(i)] != 0 ? 1 : 0);
-  auto b = k.at(later, rate_dps);
-  return (a.f_mps2 - b.f_mps2).norm() < 1e-3;
-}
-
 double now_wall() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 std::string file_sha(const std::string& p) { return solver::sha256_file_hex(p); }
-
-// Steps' table command and label.
-struct StepInfo {
-  int phase = 0, step = 0;
-  std::string key, label;
-  physics::CampaignStep::Kind kind = physics::CampaignStep::Kind::kPosition;
-  std::array<double, 3> position_deg{};  // the table position during the dwell (for rates: the start)
-  std::array<double, 3> rate_dps{};
-  double dwell_s = 0.0;
-  bool accel_ok = true;
-};
 
 }  // namespace
 
@@ -128,6 +80,7 @@ RunResult Runner::run() {
     if (opt_.campaign_path.empty()) opt_.campaign_path = s0.value("campaign_path", "");
     if (opt_.station_path.empty()) opt_.station_path = s0.value("station_path", "");
     if (opt_.serial.empty()) opt_.serial = s0.value("serial", "");
+    if (opt_.slot.empty()) opt_.slot = s0.value("slot", "");
     if (opt_.db.empty()) opt_.db = s0.value("db", "");
     opt_.early_stop = opt_.early_stop && s0.value("early_stop", true);
   } else if (fs::exists(jpath)) {
@@ -143,10 +96,14 @@ RunResult Runner::run() {
     throw std::invalid_argument(std::string("campaign: ") + e.what());
   }
   StationConfig st = load_station(opt_.station_path);
-  if (st.slots.size() > 1)
+  // A multi-slot station runs its units through StationRunner (station_runner.h), which finishes each
+  // unit here with opt_.slot set: the slot's node, nest geometry and mount tolerance.
+  if (!opt_.slot.empty()) {
+    narrow_to_slot(st, camp, opt_.slot);
+  } else if (st.slots.size() > 1) {
     throw std::invalid_argument("station " + opt_.station_path + " lists " + std::to_string(st.slots.size()) +
-                                " slots: imuforge run drives one unit per campaign (multi-slot runs are not built yet); "
-                                "solve the units' logs together with imuforge batch (docs/eol.md \"Batches\")");
+                                " slots: a multi-unit station is run by StationRunner (imuforge run without --serial)");
+  }
   if (st.model_path.empty()) throw std::invalid_argument("station " + opt_.station_path + ": \"model\" (solver model file) is required");
   std::string model_path = fs::path(st.model_path).is_absolute() ? st.model_path : (fs::path(st.dir) / st.model_path).string();
   model::ModelSpec spec;
@@ -171,60 +128,22 @@ RunResult Runner::run() {
   res.db = db;
 
   // ---- the schedule ---------------------------------------------------------------------------
-  Kin kin;
-  kin.geom = geometry_of(camp);
+  Kin kin = kinematics_of(camp);
   physics::Site site{camp.latitude_deg, camp.height_m};
-  kin.g_ned = physics::gravity_ned(site);
-  kin.wie_ned = physics::earth_rate_ned(site);
-  std::vector<std::vector<StepInfo>> plan(camp.phases.size());
   int total_steps = 0;
-  for (std::size_t p = 0; p < camp.phases.size(); ++p) {
-    const auto& ph = camp.phases[p];
-    std::array<double, 3> pos{};
-    if (ph.kind == physics::CampaignPhase::Kind::kRamp) {
-      StepInfo si;
-      si.phase = static_cast<int>(p);
-      si.key = step_key(si.phase, 0);
-      si.label = ph.label.empty() ? "ramp" : ph.label;
-      si.kind = physics::CampaignStep::Kind::kSoak;
-      si.dwell_s = 0;  // until the chamber reaches the setpoint
-      plan[p].push_back(si);
-      ++total_steps;
-      continue;
-    }
-    for (std::size_t s = 0; s < ph.steps.size(); ++s) {
-      const auto& cs = ph.steps[s];
-      StepInfo si;
-      si.phase = static_cast<int>(p);
-      si.step = static_cast<int>(s);
-      si.key = step_key(si.phase, si.step);
-      si.label = cs.label.empty() ? si.key : cs.label;
-      si.kind = cs.kind;
-      si.dwell_s = cs.dwell_s;
-      switch (cs.kind) {
-        case physics::CampaignStep::Kind::kPosition: pos = cs.position_deg; si.position_deg = pos; break;
-        case physics::CampaignStep::Kind::kRate:
-          si.position_deg = pos;
-          si.rate_dps = cs.rate_dps;
-          si.accel_ok = is_vertical_rotation(kin, pos, cs.rate_dps);
-          break;
-        case physics::CampaignStep::Kind::kSoak: si.position_deg = pos; break;
-        default:
-          throw std::invalid_argument("campaign " + opt_.campaign_path + ": phases[" + std::to_string(p) + "].steps[" +
-                                      std::to_string(s) + "]: step kind not supported on a station (only position, "
-                                      "rate, soak): " + si.label);
-      }
-      if (!(si.dwell_s > 0)) throw std::invalid_argument("campaign: " + si.key + " has no dwell_s");
-      plan[p].push_back(si);
-      ++total_steps;
-    }
-  }
+  const std::vector<std::vector<StepInfo>> plan = build_plan(camp, kin, opt_.campaign_path, &total_steps);
   res.segments_total = total_steps;
   res.schedule_time_s = camp.nominal_duration_s();
 
   // ---- tracker, specs --------------------------------------------------------------------------
   Tracker tracker(spec);
   tracker.set_noise(st.accel_noise_mps2, st.gyro_noise_rad_s);
+  // The tracker steers on the honest σ: the station's fixture tolerance, considered as the batch solve
+  // will (checked against the campaign's table above).
+  if (!st.fixture_tolerance.is_null())
+    tracker.set_fixture_tolerance(solver::fixture_tolerance_from_json(st.fixture_tolerance, static_cast<int>(camp.axes.size()),
+                                                                      "station " + opt_.station_path),
+                                  spec, camp);
   const int n = tracker.size();
   Eigen::VectorXd sigma_spec = Eigen::VectorXd::Zero(n);
   bool have_spec = false;
@@ -294,6 +213,7 @@ RunResult Runner::run() {
   bool collection_done = false, early_stopped = false;
   double run_clock_base = 0.0;  // run time (fixture seconds) already spent by earlier processes
   json finish;                  // finish-stage entries by type
+  std::map<std::string, json> verify_segments;  // verification segments collected with the station's units
   ReportData rd;
   rd.names = tracker.names();
   rd.spec = sigma_spec;
@@ -309,6 +229,7 @@ RunResult Runner::run() {
       io::LogRow row;
       while (r.next(row)) rows.push_back(row);
       tracker.add_segment(r.meta(), rows, static_cast<int>(seg_files.size()), e.value("label", ""));
+      tracker.add_fixture_segment(file);
       seg_files.push_back(file);
       done.insert(e.at("key").get<std::string>());
       run_clock_base = std::max(run_clock_base, e.value("t_end_s", 0.0));
@@ -317,8 +238,10 @@ RunResult Runner::run() {
         rd.chamber_temp_C.push_back({rows.front().t_s, rows.front().chamber_C});
       }
       rd.sigma_t_s.push_back(e.value("t_end_s", 0.0));
-      rd.sigma_hist.push_back(tracker.estimate().sigma());
+      rd.sigma_hist.push_back(tracker.honest_sigma());
       ++res.segments_resumed;
+    } else if (type == "verify_segment") {
+      verify_segments[e.at("key").get<std::string>()] = e;  // collected by StationRunner, not yet used
     } else if (type == "plateau_done") {
       phase_done[e.at("phase").get<std::size_t>()] = true;
     } else if (type == "clock") {
@@ -372,7 +295,7 @@ RunResult Runner::run() {
     for (std::size_t p = static_cast<std::size_t>(phase) + 1; p < camp.phases.size(); ++p) left += st.settle_window_s;
     ps.fixture_remaining_s = left;
     ps.names = &tracker.names();
-    ps.sigma = tracker.estimate().sigma();
+    ps.sigma = tracker.honest_sigma();
     ps.spec = sigma_spec;
     std::fprintf(opt_.progress, "%s\n", progress_line(ps).c_str());
     if (table) std::fprintf(opt_.progress, "%s", sigma_table(ps).c_str());
@@ -512,12 +435,13 @@ RunResult Runner::run() {
                        {"sha256", sha}, {"rows", rows.size()}, {"t_start_s", t_start}, {"t_end_s", t_end},
                        {"lost", ss.lost}, {"duplicated", ss.duplicated}, {"reordered", ss.reordered}});
       tracker.add_segment(meta, rows, static_cast<int>(seg_files.size()), si.label);
+      tracker.add_fixture_segment(file);
       seg_files.push_back(file);
       done.insert(si.key);
       rd.imu_temp_C.push_back({t_start, rows.front().temp_C});
       rd.chamber_temp_C.push_back({t_start, last_air_C});
       rd.sigma_t_s.push_back(t_end);
-      rd.sigma_hist.push_back(tracker.estimate().sigma());
+      rd.sigma_hist.push_back(tracker.honest_sigma());
       ++res.segments_collected;
       ++collected_here;
       if (opt_.crash_after_segments > 0 && collected_here >= opt_.crash_after_segments) throw SimulatedCrash();
@@ -543,6 +467,15 @@ RunResult Runner::run() {
     }
     return b;
   };
+  // A predicted noise-only σ with today's fixture part added: the fixture part does not shrink with more
+  // data (no campaign separates a nest rotation from a common misalignment), so it is carried as a floor.
+  auto with_floor = [&](const Eigen::VectorXd& sig) {
+    const Eigen::VectorXd f = tracker.fixture_variance();
+    Eigen::VectorXd h = sig;
+    for (Eigen::Index i = 0; i < h.size(); ++i)
+      if (std::isfinite(h[i])) h[i] = std::sqrt(h[i] * h[i] + f[i]);
+    return h;
+  };
   std::map<std::pair<int, int>, Eigen::MatrixXd> info_cache;
   auto step_info = [&](int p, int s, double T_C) -> const Eigen::MatrixXd& {
     auto key = std::make_pair(p, s);
@@ -560,7 +493,7 @@ RunResult Runner::run() {
       if (phase_done[p]) continue;
       const auto& ph = camp.phases[p];
       const int pi = static_cast<int>(p);
-      if (early && tracker.segments() > 0 && meets(tracker.estimate().sigma())) {
+      if (early && tracker.segments() > 0 && meets(tracker.honest_sigma())) {
         early_stopped = true;
         break;
       }
@@ -598,19 +531,19 @@ RunResult Runner::run() {
         while (!todo.empty()) {
           std::size_t pick = 0;
           if (early) {
-            Eigen::VectorXd now_sig = tracker.estimate().sigma();
+            Eigen::VectorXd now_sig = tracker.honest_sigma();
             if (tracker.segments() > 0 && meets(now_sig)) {
               early_stopped = true;
               break;
             }
-            if (!later.empty() && !pattern.empty() && meets(tracker.sigma_of(projected(pattern)))) break;
+            if (!later.empty() && !pattern.empty() && meets(with_floor(tracker.sigma_of(projected(pattern))))) break;
             // Greedy design: the step that, repeated on the later plateaus, brings the spec closest.
             double best = std::numeric_limits<double>::infinity();
             for (std::size_t c = 0; c < todo.size(); ++c) {
               std::vector<int> pat = pattern;
               pat.push_back(todo[c]);
               Eigen::MatrixXd h = projected(pat) + step_info(pi, todo[c], ph.setpoint_C + temp_offset_C);
-              double b = badness(tracker.sigma_of(h));
+              double b = badness(with_floor(tracker.sigma_of(h)));
               if (b < best - 1e-12) {
                 best = b;
                 pick = c;
@@ -629,7 +562,7 @@ RunResult Runner::run() {
       phase_done[p] = true;
       progress(pi, "plateau done", true);
     }
-    if (!early_stopped && early && meets(tracker.estimate().sigma())) early_stopped = done.size() < static_cast<std::size_t>(total_steps);
+    if (!early_stopped && early && meets(tracker.honest_sigma())) early_stopped = done.size() < static_cast<std::size_t>(total_steps);
     peer("rate table stop", [&] { bench_.command_rate({0, 0, 0}); return 0; });
     journal->append({{"type", "collection_done"}, {"early_stop", early_stopped}, {"t_s", run_clock()},
                      {"segments", seg_files.size()}});
@@ -785,7 +718,28 @@ RunResult Runner::run() {
       } else {
         std::vector<io::LogRow> rows;
         std::vector<ImuSample> raws;
-        collect(si, key, false, &rows, &raws, 0.0);
+        auto vs = verify_segments.find(key);
+        if (vs != verify_segments.end()) {
+          // A multi-unit station streamed every unit at this pose at once (station_runner.cpp); the raw
+          // counts do not depend on the table flashed since, so the kernel check runs on them now.
+          const std::string file = (out / vs->second.at("file").get<std::string>()).string();
+          if (!fs::exists(file) || file_sha(file) != vs->second.at("sha256").get<std::string>())
+            throw JournalError("journal says verification segment " + key + " is safe in " + file +
+                               " but the file is missing or its SHA-256 differs");
+          io::LogReader r(file);
+          io::LogRow row;
+          while (r.next(row)) {
+            ImuSample x;
+            x.t_s = row.t_s;
+            x.temp_C = row.temp_C;
+            for (int j = 0; j < 6; ++j) x.raw[j] = row.raw[j];
+            rows.push_back(row);
+            raws.push_back(x);
+          }
+          if (rows.empty()) throw JournalError("verification segment " + file + " holds no rows");
+        } else {
+          collect(si, key, false, &rows, &raws, 0.0);
+        }
         bool accel_ok = !is_rate || is_vertical_rotation(kin, vp.position_deg, vp.rate_dps);
         for (std::size_t i = 0; i < rows.size(); ++i) {
           double o[6];

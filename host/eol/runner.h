@@ -24,6 +24,9 @@ struct RunOptions {
   std::string station_path;
   std::string db;               // overrides the station's records.db when non-empty
   bool resume = false;
+  // The unit's slot in a multi-slot station (StationRunner finishes each unit with it): the slot's node,
+  // nest geometry and mount tolerance replace the station's single-unit ones. "" = single-unit station.
+  std::string slot;
   bool early_stop = true;       // AND the station's early_stop
   std::FILE* progress = stderr; // nullptr: silent
   // Test hook: throw SimulatedCrash after this many segments were made safe in THIS process (0 = off).

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "host/poses/detect.h"
+#include "host/solver/fixture_errors.h"
 
 namespace imuforge::eol {
 
@@ -196,6 +197,54 @@ Eigen::VectorXd Tracker::sigma_of(const Eigen::MatrixXd& info) const {
   Eigen::VectorXd z = Eigen::VectorXd::Zero(info.rows());
   solver::Estimate e = solver::solve_partial(info, z, names_);
   return e.sigma();
+}
+
+void Tracker::set_fixture_tolerance(const solver::FixtureTolerance& tol, const model::ModelSpec& spec,
+                                    const physics::Campaign& campaign) {
+  spec_ = spec;
+  campaign_ = campaign;
+  considered_.clear();
+  std::vector<double> sig;
+  for (const std::string& name : solver::fixture_nuisance_names(static_cast<int>(campaign.axes.size())))
+    if (tol.sigma_of(name) > 0) {
+      considered_.push_back(name);
+      sig.push_back(tol.sigma_of(name));
+    }
+  considered_sigma_ = Eigen::Map<Eigen::VectorXd>(sig.data(), static_cast<Eigen::Index>(sig.size()));
+  h_theta_eta_ = Eigen::MatrixXd::Zero(size(), static_cast<Eigen::Index>(considered_.size()));
+}
+
+void Tracker::add_fixture_segment(const std::string& segment_file) {
+  if (considered_.empty() || !fixture_error_.empty()) return;
+  const int n = size(), nc = static_cast<int>(considered_.size());
+  const double a = accel_noise(), g = gyro_noise();
+  const solver::Sigma6 sigma{a, a, a, g, g, g};
+  try {
+    io::LogReader r(segment_file);
+    // Linearised at nominal (θ = 0, η = 0): H_θη of a linear model barely depends on θ.
+    const Eigen::MatrixXd h = solver::fixture_joint_information(r, spec_, campaign_, considered_,
+                                                                Eigen::VectorXd::Zero(n + nc), sigma);
+    h_theta_eta_ += h.block(0, n, n, nc);
+  } catch (const std::exception& e) {
+    fixture_error_ = std::string("fixture tolerance not tracked: ") + e.what();
+  }
+}
+
+Eigen::VectorXd Tracker::fixture_variance() const {
+  const int n = size();
+  if (considered_.empty() || !fixture_error_.empty() || segments() == 0) return Eigen::VectorXd::Zero(n);
+  const Eigen::MatrixXd P = estimate().covariance;
+  if (!P.allFinite()) return Eigen::VectorXd::Zero(n);
+  const Eigen::MatrixXd ss = P * h_theta_eta_ * considered_sigma_.asDiagonal();
+  return ss.rowwise().squaredNorm();
+}
+
+Eigen::VectorXd Tracker::honest_sigma() const {
+  const Eigen::VectorXd s = estimate().sigma();
+  const Eigen::VectorXd f = fixture_variance();
+  Eigen::VectorXd h(s.size());
+  for (Eigen::Index i = 0; i < s.size(); ++i) h[i] = std::isfinite(s[i]) ? std::sqrt(s[i] * s[i] + f[i]) : s[i];
+  return h;
 }
 
 void Tracker::finalize_residuals(const Eigen::VectorXd& theta) {

@@ -19,6 +19,8 @@
 #include "host/model/sensor_model.h"
 #include "host/solver/estimate.h"
 #include "host/solver/srif.h"
+#include "host/physics/campaign.h"
+#include "host/solver/consider.h"
 
 namespace imuforge::eol {
 
@@ -69,6 +71,20 @@ class Tracker {
   // σ per parameter from an information matrix (inf where not observable). O(n³).
   Eigen::VectorXd sigma_of(const Eigen::MatrixXd& info) const;
 
+  // Honest σ (docs/calibration.md "Honest σ"): with the station's fixture tolerance set, every segment's
+  // model × fixture block of the joint information (solver::fixture_joint_information, one pass over the
+  // segment file, the same linearisation as the batch solve's consider analysis) is summed, and
+  // honest_sigma() = sqrt(diag(P + S Σ Sᵀ)), S = P H_θη, P the noise-only covariance. The runner steers
+  // and stops on it, so a spec below the fixture's floor is never "met" by noise alone. A segment the
+  // joint linearisation refuses (e.g. a per-plateau model) turns the fixture part off: fixture_error().
+  void set_fixture_tolerance(const solver::FixtureTolerance& tol, const model::ModelSpec& spec,
+                             const physics::Campaign& campaign);
+  void add_fixture_segment(const std::string& segment_file);
+  // diag(S Σ Sᵀ) for the current data (zeros without a tolerance). O(n³).
+  Eigen::VectorXd fixture_variance() const;
+  Eigen::VectorXd honest_sigma() const;
+  const std::string& fixture_error() const { return fixture_error_; }
+
   // Computes SegmentResidual::after with the given parameter values (in names() order).
   void finalize_residuals(const Eigen::VectorXd& theta);
   const std::vector<SegmentResidual>& residuals() const { return residuals_; }
@@ -91,6 +107,13 @@ class Tracker {
   double lsb_[2] = {0, 0};
   std::vector<SegmentResidual> residuals_;
   std::vector<Rejection> rejections_;
+  // Honest σ: the considered fixture parameters, their 1σ, and Σ H_θη over the segments.
+  model::ModelSpec spec_;
+  physics::Campaign campaign_;
+  std::vector<std::string> considered_;
+  Eigen::VectorXd considered_sigma_;
+  Eigen::MatrixXd h_theta_eta_;
+  std::string fixture_error_;
 };
 
 }  // namespace imuforge::eol

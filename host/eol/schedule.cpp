@@ -1,0 +1,117 @@
+#include "host/eol/schedule.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "host/physics/earth.h"
+
+namespace imuforge::eol {
+
+std::string step_key(int phase, int step) { return "p" + std::to_string(phase) + "s" + std::to_string(step); }
+
+namespace {
+constexpr double kDeg = M_PI / 180.0;
+}
+
+physics::ImuKinematics Kin::at(const std::array<double, 3>& angle_deg, const std::array<double, 3>& rate_dps) const {
+  physics::TableState st;
+  for (std::size_t i = 0; i < 3; ++i) {
+    st.angle_rad[i] = angle_deg[i] * kDeg;
+    st.rate_rad_s[i] = rate_dps[i] * kDeg;
+  }
+  return physics::table_kinematics(geom, st, g_ned, wie_ned);
+}
+
+Kin kinematics_of(const physics::Campaign& c) {
+  Kin k;
+  // mount_rotation_deg is the IMU's attitude in the platform frame (the eol -> sim convention).
+  physics::TableGeometry& g = k.geom;
+  g.n_axes = static_cast<int>(c.axes.size());
+  for (std::size_t i = 0; i < c.axes.size() && i < 3; ++i) {
+    g.axes[i].name = c.axes[i].name;
+    g.axes[i].axis_nominal = physics::axis_from_name(c.axes[i].axis);
+  }
+  g.mount.C_imu_plat =
+      physics::rotation_zyx_deg(c.mount_rotation_deg[0], c.mount_rotation_deg[1], c.mount_rotation_deg[2]).transpose();
+  g.mount.lever_arm_m = Eigen::Vector3d(c.lever_arm_m[0], c.lever_arm_m[1], c.lever_arm_m[2]);
+  physics::Site site{c.latitude_deg, c.height_m};
+  k.g_ned = physics::gravity_ned(site);
+  k.wie_ned = physics::earth_rate_ned(site);
+  return k;
+}
+
+bool is_vertical_rotation(const Kin& k, const std::array<double, 3>& angle_deg, const std::array<double, 3>& rate_dps) {
+  // Check f a quarter turn later.
+  auto a = k.at(angle_deg, rate_dps);
+  std::array<double, 3> later = angle_deg;
+  for (std::size_t i = 0; i < 3; ++i) later[i] += 90.0 * (rate_dps[i] != 0 ? 1 : 0);
+  auto b = k.at(later, rate_dps);
+  return (a.f_mps2 - b.f_mps2).norm() < 1e-3;
+}
+
+std::vector<std::vector<StepInfo>> build_plan(const physics::Campaign& camp, const Kin& kin,
+                                              const std::string& campaign_path, int* total_steps) {
+  std::vector<std::vector<StepInfo>> plan(camp.phases.size());
+  int total = 0;
+  for (std::size_t p = 0; p < camp.phases.size(); ++p) {
+    const auto& ph = camp.phases[p];
+    std::array<double, 3> pos{};
+    if (ph.kind == physics::CampaignPhase::Kind::kRamp) {
+      StepInfo si;
+      si.phase = static_cast<int>(p);
+      si.key = step_key(si.phase, 0);
+      si.label = ph.label.empty() ? "ramp" : ph.label;
+      si.kind = physics::CampaignStep::Kind::kSoak;
+      si.dwell_s = 0;  // until the chamber reaches the setpoint
+      plan[p].push_back(si);
+      ++total;
+      continue;
+    }
+    for (std::size_t s = 0; s < ph.steps.size(); ++s) {
+      const auto& cs = ph.steps[s];
+      StepInfo si;
+      si.phase = static_cast<int>(p);
+      si.step = static_cast<int>(s);
+      si.key = step_key(si.phase, si.step);
+      si.label = cs.label.empty() ? si.key : cs.label;
+      si.kind = cs.kind;
+      si.dwell_s = cs.dwell_s;
+      switch (cs.kind) {
+        case physics::CampaignStep::Kind::kPosition: pos = cs.position_deg; si.position_deg = pos; break;
+        case physics::CampaignStep::Kind::kRate:
+          si.position_deg = pos;
+          si.rate_dps = cs.rate_dps;
+          si.accel_ok = is_vertical_rotation(kin, pos, cs.rate_dps);
+          break;
+        case physics::CampaignStep::Kind::kSoak: si.position_deg = pos; break;
+        default:
+          throw std::invalid_argument("campaign " + campaign_path + ": phases[" + std::to_string(p) + "].steps[" +
+                                      std::to_string(s) + "]: step kind not supported on a station (only position, "
+                                      "rate, soak): " + si.label);
+      }
+      if (!(si.dwell_s > 0)) throw std::invalid_argument("campaign: " + si.key + " has no dwell_s");
+      plan[p].push_back(si);
+      ++total;
+    }
+  }
+  if (total_steps) *total_steps = total;
+  return plan;
+}
+
+void narrow_to_slot(StationConfig& st, physics::Campaign& camp, const std::string& slot) {
+  const StationSlot* sl = st.slot(slot);
+  if (!sl) throw std::invalid_argument("station " + st.name + ": no slot named '" + slot + "'");
+  const StationSlot s = *sl;
+  st.can_node_id = s.node_id;
+  if (!s.bus.empty()) st.can_bus = s.bus;
+  if (s.has_geometry) {
+    camp.mount_rotation_deg = s.mount_rotation_deg;
+    camp.lever_arm_m = s.lever_arm_m;
+  }
+  if (s.mount_sigma_deg[0] >= 0) {
+    if (!st.fixture_tolerance.is_object()) st.fixture_tolerance = nlohmann::json::object();
+    st.fixture_tolerance["mount_sigma_deg"] = s.mount_sigma_deg;
+  }
+}
+
+}  // namespace imuforge::eol

@@ -1,0 +1,61 @@
+// Station figures (issue 14, not a test): units per hour of the live multi-unit runner on bench-sim with
+// the end-of-line campaign (docs/examples/campaign-eol.json, time-scaled), for N units on one station.
+// Per N: simulated campaign hours, wall time (collection at the time scale, then the finish on the
+// host), units per simulated hour = N / (campaign + finish), finish CPU per unit (solve, table, flash,
+// read back, verify, record: its thread's CPU), and this process's peak RSS (the whole station run).
+//   eol_bench_station [N list, comma separated = 1,4,8,16] [time_scale=200] [rate_hz=10] [out_dir=/tmp/imuforge-station]
+//                     [campaign=docs/examples/campaign-eol.json] [model=docs/examples/model-thermal.json]
+#include <sys/resource.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "host/eol/demo.h"
+
+namespace fs = std::filesystem;
+
+int main(int argc, char** argv) {
+  std::vector<int> ns;
+  {
+    std::stringstream ss(argc > 1 ? argv[1] : "1,4,8,16");
+    for (std::string x; std::getline(ss, x, ',');) ns.push_back(std::atoi(x.c_str()));
+  }
+  const double scale = argc > 2 ? std::atof(argv[2]) : 200.0;
+  const double rate = argc > 3 ? std::atof(argv[3]) : 10.0;
+  const fs::path root = argc > 4 ? argv[4] : "/tmp/imuforge-station";
+  const std::string campaign = argc > 5 ? argv[5] : "", model = argc > 6 ? argv[6] : "";
+  std::printf("| N | campaign (sim h) | collect wall s | finish wall s | units/h | finish CPU s/unit | pass | early stop | peak RSS MB |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  for (int n : ns) {
+    imuforge::eol::DemoOptions o;
+    o.out_dir = (root / ("n" + std::to_string(n))).string();
+    std::error_code ec;
+    fs::remove_all(o.out_dir, ec);
+    o.self_exe = IMUFORGE_BIN;
+    o.examples_dir = IMUFORGE_SOURCE_DIR "/docs/examples";
+    o.time_scale = scale;
+    o.stream_rate_hz = rate;
+    o.quiet = true;
+    o.slots = n;
+    o.campaign = campaign;
+    o.model = model;
+    imuforge::eol::DemoOptions::Stats st;
+    o.stats = &st;
+    const int code = imuforge::eol::run_demo(o);  // 0: every unit passed
+    (void)code;
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    double cpu = 0;
+    for (double c : st.finish_cpu_s) cpu += c;
+    const double hours = (st.campaign_time_s + st.finish_wall_s) / 3600.0;
+    std::printf("| %d | %.2f | %.0f | %.0f | %.1f | %.2f | %d/%d | %s | %.0f |\n", n, st.campaign_time_s / 3600.0,
+                st.collect_wall_s, st.finish_wall_s, n / hours, cpu / n, st.passed, st.units, st.early_stopped ? "yes" : "no",
+                static_cast<double>(ru.ru_maxrss) / 1024.0);
+    std::fflush(stdout);
+  }
+  return 0;
+}
