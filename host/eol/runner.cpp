@@ -1,3 +1,7 @@
+// The single-unit end-of-line run (runner.h). One piece, ~840 lines, because resume, collection and the
+// finish share one journal-backed state (segments made safe, record id journaled before the insert) whose
+// ordering is the crash-consistency guarantee (docs/eol.md); the multi-unit StationRunner finishes each
+// unit through this same run() with a bench that refuses moves.
 #include "host/io/campaign_file.h"
 #include "host/eol/runner.h"
 
