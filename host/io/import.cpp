@@ -62,6 +62,19 @@ using namespace detail;
 
 namespace {
 
+// The sample rate from the median interval. Rounded to the mHz, where that keeps it a rate: a median
+// interval of hours (a fuzzed file) once rounded to 0 Hz and was accepted.
+double rate_from_median_interval(std::vector<double>& dts, const std::string& file) {
+  if (dts.empty()) throw LogError(file + ": need at least two samples to infer the sample rate");
+  std::nth_element(dts.begin(), dts.begin() + static_cast<long>(dts.size() / 2), dts.end());
+  const double med = dts[dts.size() / 2];
+  if (!(med > 0) || !std::isfinite(med)) throw LogError(file + ": timestamps do not increase");
+  const double raw = 1.0 / med;
+  const double fs = raw >= 1.0 ? std::round(raw * 1000.0) / 1000.0 : raw;
+  if (!(fs > 0) || !std::isfinite(fs)) throw LogError(file + ": cannot infer a sample rate from the timestamps");
+  return fs;
+}
+
 struct XsensRow {
   double t;
   std::int32_t v[3];
@@ -108,13 +121,7 @@ ImportSummary import_xsens(const ImportOptions& o, const std::string& out, LogEn
       prev = r.t;
     }
     if (std::isnan(prev)) throw LogError(o.in + ": no samples");
-    if (!(fs > 0)) {
-      if (dts.empty()) throw LogError(o.in + ": need at least two samples to infer the sample rate");
-      std::nth_element(dts.begin(), dts.begin() + static_cast<long>(dts.size() / 2), dts.end());
-      const double med = dts[dts.size() / 2];
-      if (!(med > 0)) throw LogError(o.in + ": timestamps do not increase");
-      fs = std::round(1.0 / med * 1000.0) / 1000.0;
-    }
+    if (!(fs > 0)) fs = rate_from_median_interval(dts, o.in);
     fa.clear();
     fa.seekg(0);
   }
@@ -300,10 +307,7 @@ ImportSummary import_si_csv(const ImportOptions& o, const std::string& out, LogE
   }
   if (rows.size() < 2) throw LogError(o.in + ": need at least two samples");
   double fs = o.sample_rate_hz;
-  if (!(fs > 0)) {
-    std::nth_element(dts.begin(), dts.begin() + static_cast<long>(dts.size() / 2), dts.end());
-    fs = std::round(1.0 / dts[dts.size() / 2] * 1000.0) / 1000.0;
-  }
+  if (!(fs > 0)) fs = rate_from_median_interval(dts, o.in);
   m.sample_rate_hz = fs;
   const double t0 = rows.front().t_s;
   LogWriter w(out, m, enc);

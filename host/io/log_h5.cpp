@@ -276,6 +276,7 @@ herr_t collect_attr(hid_t loc, const char* name, const H5A_info_t*, void* data) 
         H5Tset_cset(mt, H5Tget_cset(type));
         char* p = nullptr;
         if (H5Aread(a, mt, &p) < 0) {
+          if (p) H5free_memory(p);  // a read that fails after the library allocated (corrupt file)
           out->error = std::string("attribute '") + name + "' cannot be read";
           return -1;
         }

@@ -1,4 +1,4 @@
-// Log v1 fuzzing (CSV and binary targets): read every row; a log that reads must also write back and
+// Log v1 fuzzing (CSV, binary and HDF5 targets): read every row; a log that reads must also write back and
 // read again to the same metadata and rows (bit for bit, NaN for NaN).
 #pragma once
 #include <cmath>
@@ -29,7 +29,9 @@ inline bool same_row(const imuforge::io::LogRow& a, const imuforge::io::LogRow& 
 // Rows beyond this are not read (keeps executions fast; the reader is per-row, nothing accumulates).
 constexpr std::size_t kMaxRows = 4096;
 
-inline void fuzz_log(const std::string& path, imuforge::io::LogEncoding enc) {
+// enc: the encoding the input must read as; back: the encoding it is written back in and read again
+// (the HDF5 target reads CSV and round-trips it through the HDF5 writer and reader).
+inline void fuzz_log(const std::string& path, imuforge::io::LogEncoding enc, imuforge::io::LogEncoding back_enc) {
   using namespace imuforge::io;
   std::vector<LogRow> rows;
   LogMeta meta;
@@ -53,9 +55,10 @@ inline void fuzz_log(const std::string& path, imuforge::io::LogEncoding enc) {
   for (auto& row : rows) {
     for (int i = meta.table_axes; i < 3; ++i) row.table_angle_rad[i] = row.table_rate_rad_s[i] = std::nan("");
   }
-  const std::string back = scratch(enc == LogEncoding::kCsv ? "back.csv" : "back.bin");
+  const std::string back =
+      scratch(back_enc == LogEncoding::kCsv ? "back.csv" : back_enc == LogEncoding::kHdf5 ? "back.h5" : "back.bin");
   try {
-    LogWriter w(back, meta, enc);
+    LogWriter w(back, meta, back_enc);
     for (const auto& row : rows) w.write(row);
     w.close();
   } catch (const std::exception& e) {
