@@ -190,7 +190,7 @@ void mark_outliers(BatchOutcome& b, const BatchOptions& opt) {
   }
 }
 
-std::string record_batch(records::RecordStore& store, const BatchOutcome& b, const StationConfig& st,
+std::string record_batch(records::RecordStore& store, const BatchOutcome& b,
                          const BatchProvenance& prov) {
   store.ensure_schema();
   // The provenance both record kinds share.

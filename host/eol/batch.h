@@ -103,7 +103,7 @@ struct BatchProvenance {
   std::string station, campaign, campaign_sha256, started_utc, finished_utc;
   std::string batch_id;  // "" = a new id
 };
-std::string record_batch(records::RecordStore& store, const BatchOutcome& b, const StationConfig& st,
+std::string record_batch(records::RecordStore& store, const BatchOutcome& b,
                          const BatchProvenance& prov);
 nlohmann::json batch_to_json(const BatchOutcome& b);
 

@@ -74,7 +74,7 @@ int run_batch(int argc, char** argv) {
     if (!db.empty()) {
       auto store = records::open_store(db);
       const std::string id = eol::record_batch(
-          *store, b, st, {st.name, camp.name, solver::sha256_file_hex(campaign_path), started, records::utc_now_iso8601(), ""});
+          *store, b, {st.name, camp.name, solver::sha256_file_hex(campaign_path), started, records::utc_now_iso8601(), ""});
       std::printf("batch record %s in %s (%s)\n", id.c_str(), db.c_str(), store->backend().c_str());
     }
     return b.passed == static_cast<int>(b.units.size()) ? app::kExitOk : app::kExitFailed;

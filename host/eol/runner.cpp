@@ -72,14 +72,10 @@ RunResult Runner::run() {
   const fs::path out = fs::absolute(opt_.out_dir);
   const fs::path jpath = out / "journal.log";
 
-  // ---- resume: the journal's run_start carries the inputs ---------------------------------------
-  JournalContents jc;
+  // ---- resume: the journal's run_start carries the inputs (schedule.h, shared with StationRunner) --
   std::unique_ptr<Journal> journal;
+  JournalContents jc = open_run_journal(jpath, opt_.resume, &journal);
   if (opt_.resume) {
-    if (!fs::exists(jpath)) throw std::invalid_argument("--resume: no journal at " + jpath.string());
-    journal = std::make_unique<Journal>(Journal::open_existing(jpath.string(), &jc));
-    if (jc.entries.empty() || jc.entries[0]["type"] != "run_start")
-      throw JournalError("journal " + jpath.string() + ": first entry is not run_start");
     const json& s0 = jc.entries[0];
     if (opt_.campaign_path.empty()) opt_.campaign_path = s0.value("campaign_path", "");
     if (opt_.station_path.empty()) opt_.station_path = s0.value("station_path", "");
@@ -87,19 +83,14 @@ RunResult Runner::run() {
     if (opt_.slot.empty()) opt_.slot = s0.value("slot", "");
     if (opt_.db.empty()) opt_.db = s0.value("db", "");
     opt_.early_stop = opt_.early_stop && s0.value("early_stop", true);
-  } else if (fs::exists(jpath)) {
-    throw std::invalid_argument(out.string() + " already holds a run (journal.log): use --resume, or a new --out");
   }
   if (opt_.campaign_path.empty() || opt_.station_path.empty() || opt_.serial.empty())
     throw std::invalid_argument("--campaign, --station and --serial are required");
 
-  physics::Campaign camp;
-  try {
-    camp = io::load_campaign(opt_.campaign_path);
-  } catch (const std::exception& e) {
-    throw std::invalid_argument(std::string("campaign: ") + e.what());
-  }
-  StationConfig st = load_station(opt_.station_path);
+  RunInputs in = load_run_inputs(opt_.campaign_path, opt_.station_path, opt_.db, out);
+  physics::Campaign& camp = in.camp;
+  StationConfig& st = in.st;
+  const model::ModelSpec& spec = in.spec;
   // A multi-slot station runs its units through StationRunner (station_runner.h), which finishes each
   // unit here with opt_.slot set: the slot's node, nest geometry and mount tolerance.
   if (!opt_.slot.empty()) {
@@ -107,14 +98,6 @@ RunResult Runner::run() {
   } else if (st.slots.size() > 1) {
     throw std::invalid_argument("station " + opt_.station_path + " lists " + std::to_string(st.slots.size()) +
                                 " slots: a multi-unit station is run by StationRunner (imuforge run without --serial)");
-  }
-  if (st.model_path.empty()) throw std::invalid_argument("station " + opt_.station_path + ": \"model\" (solver model file) is required");
-  std::string model_path = fs::path(st.model_path).is_absolute() ? st.model_path : (fs::path(st.dir) / st.model_path).string();
-  model::ModelSpec spec;
-  try {
-    spec = model::load_model_spec(model_path);
-  } catch (const std::exception& e) {
-    throw std::invalid_argument(std::string("model: ") + e.what());
   }
   // The fixture tolerance is checked against the campaign's table now, not after hours of collection.
   if (!st.fixture_tolerance.is_null()) {
@@ -125,10 +108,9 @@ RunResult Runner::run() {
       throw std::invalid_argument(e.what());
     }
   }
-  const std::string campaign_sha = file_sha(opt_.campaign_path);
-  const std::string station_sha = file_sha(opt_.station_path);
-  std::string db = !opt_.db.empty() ? opt_.db : st.db;
-  if (!records::is_postgres_url(db) && !fs::path(db).is_absolute()) db = (out / db).string();
+  const std::string& campaign_sha = in.campaign_sha256;
+  const std::string& station_sha = in.station_sha256;
+  const std::string& db = in.db;
   res.db = db;
 
   // ---- the schedule ---------------------------------------------------------------------------

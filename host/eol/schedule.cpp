@@ -3,7 +3,10 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "host/io/campaign_file.h"
 #include "host/physics/earth.h"
+#include "host/records/store.h"
+#include "host/solver/sha256.h"
 
 namespace imuforge::eol {
 
@@ -112,6 +115,48 @@ void narrow_to_slot(StationConfig& st, physics::Campaign& camp, const std::strin
     if (!st.fixture_tolerance.is_object()) st.fixture_tolerance = nlohmann::json::object();
     st.fixture_tolerance["mount_sigma_deg"] = s.mount_sigma_deg;
   }
+}
+
+JournalContents open_run_journal(const std::filesystem::path& journal_path, bool resume,
+                                 std::unique_ptr<Journal>* journal) {
+  namespace fs = std::filesystem;
+  JournalContents jc;
+  if (resume) {
+    if (!fs::exists(journal_path)) throw std::invalid_argument("--resume: no journal at " + journal_path.string());
+    *journal = std::make_unique<Journal>(Journal::open_existing(journal_path.string(), &jc));
+    if (jc.entries.empty() || jc.entries[0]["type"] != "run_start")
+      throw JournalCorruptError("journal " + journal_path.string() + " line 1: first entry is not run_start");
+  } else if (fs::exists(journal_path)) {
+    throw std::invalid_argument(journal_path.parent_path().string() +
+                                " already holds a run (journal.log): use --resume, or a new --out");
+  }
+  return jc;
+}
+
+RunInputs load_run_inputs(const std::string& campaign_path, const std::string& station_path,
+                          const std::string& db_override, const std::filesystem::path& out_dir) {
+  namespace fs = std::filesystem;
+  RunInputs in;
+  try {
+    in.camp = io::load_campaign(campaign_path);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(std::string("campaign: ") + e.what());
+  }
+  in.st = load_station(station_path);
+  if (in.st.model_path.empty())
+    throw std::invalid_argument("station " + station_path + ": \"model\" (solver model file) is required");
+  const std::string model_path =
+      fs::path(in.st.model_path).is_absolute() ? in.st.model_path : (fs::path(in.st.dir) / in.st.model_path).string();
+  try {
+    in.spec = model::load_model_spec(model_path);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(std::string("model: ") + e.what());
+  }
+  in.campaign_sha256 = solver::sha256_file_hex(campaign_path);
+  in.station_sha256 = solver::sha256_file_hex(station_path);
+  in.db = !db_override.empty() ? db_override : in.st.db;
+  if (!records::is_postgres_url(in.db) && !fs::path(in.db).is_absolute()) in.db = (out_dir / in.db).string();
+  return in;
 }
 
 }  // namespace imuforge::eol

@@ -4,10 +4,14 @@
 // narrowed to one slot. One schedule, so both runners collect the same segments under the same keys.
 #pragma once
 #include <array>
+#include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "host/eol/journal.h"
 #include "host/eol/station.h"
+#include "host/model/sensor_model.h"
 #include "host/physics/campaign.h"
 #include "host/physics/table.h"
 
@@ -48,5 +52,26 @@ std::vector<std::vector<StepInfo>> build_plan(const physics::Campaign& camp, con
 // per unit, so the live runner and the offline batch solve the same problem. Throws std::invalid_argument
 // on an unknown slot.
 void narrow_to_slot(StationConfig& st, physics::Campaign& camp, const std::string& slot);
+
+// The run folder's journal, as both runners open it. resume: the existing journal (its first entry must
+// be run_start; that entry carries the run's inputs) is opened into *journal and its contents returned.
+// Otherwise the folder must not hold a journal yet, *journal stays empty (the caller creates it once its
+// inputs load) and the contents are empty. Throws std::invalid_argument or JournalCorruptError naming
+// the file. O(journal size).
+JournalContents open_run_journal(const std::filesystem::path& journal_path, bool resume,
+                                 std::unique_ptr<Journal>* journal);
+
+// What both runners load before anything moves: the campaign, the station, the station's solver model,
+// the SHA-256 of the campaign and station files (a resume refuses changed inputs), and the records
+// database (db_override, else the station's; a relative SQLite path lies under out_dir). Throws
+// std::invalid_argument naming the file or key.
+struct RunInputs {
+  physics::Campaign camp;
+  StationConfig st;
+  model::ModelSpec spec;
+  std::string campaign_sha256, station_sha256, db;
+};
+RunInputs load_run_inputs(const std::string& campaign_path, const std::string& station_path,
+                          const std::string& db_override, const std::filesystem::path& out_dir);
 
 }  // namespace imuforge::eol

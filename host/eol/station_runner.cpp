@@ -106,46 +106,27 @@ StationRunResult StationRunner::run() {
   const fs::path out = fs::absolute(opt_.out_dir);
   const fs::path jpath = out / "journal.log";
 
-  // ---- the station journal ------------------------------------------------------------------------
-  JournalContents jc;
+  // ---- the station journal and the inputs (schedule.h, shared with the single-unit runner) ----------
   std::unique_ptr<Journal> journal;
+  JournalContents jc = open_run_journal(jpath, opt_.resume, &journal);
   if (opt_.resume) {
-    if (!fs::exists(jpath)) throw std::invalid_argument("--resume: no journal at " + jpath.string());
-    journal = std::make_unique<Journal>(Journal::open_existing(jpath.string(), &jc));
-    if (jc.entries.empty() || jc.entries[0]["type"] != "run_start")
-      throw JournalCorruptError("journal " + jpath.string() + " line 1: first entry is not run_start");
     const json& s0 = jc.entries[0];
     if (opt_.campaign_path.empty()) opt_.campaign_path = s0.value("campaign_path", "");
     if (opt_.station_path.empty()) opt_.station_path = s0.value("station_path", "");
     if (opt_.db.empty()) opt_.db = s0.value("db", "");
     opt_.early_stop = opt_.early_stop && s0.value("early_stop", true);
-  } else if (fs::exists(jpath)) {
-    throw std::invalid_argument(out.string() + " already holds a run (journal.log): use --resume, or a new --out");
   }
   if (opt_.campaign_path.empty() || opt_.station_path.empty())
     throw std::invalid_argument("--campaign and --station are required");
 
-  physics::Campaign camp;
-  try {
-    camp = io::load_campaign(opt_.campaign_path);
-  } catch (const std::exception& e) {
-    throw std::invalid_argument(std::string("campaign: ") + e.what());
-  }
-  const StationConfig st = load_station(opt_.station_path);
+  RunInputs in = load_run_inputs(opt_.campaign_path, opt_.station_path, opt_.db, out);
+  const physics::Campaign& camp = in.camp;
+  const StationConfig& st = in.st;
+  const model::ModelSpec& spec = in.spec;
   if (st.slots.empty()) throw std::invalid_argument("station " + opt_.station_path + " lists no slots");
-  if (st.model_path.empty()) throw std::invalid_argument("station " + opt_.station_path + ": \"model\" (solver model file) is required");
-  const std::string model_path =
-      fs::path(st.model_path).is_absolute() ? st.model_path : (fs::path(st.dir) / st.model_path).string();
-  model::ModelSpec spec;
-  try {
-    spec = model::load_model_spec(model_path);
-  } catch (const std::exception& e) {
-    throw std::invalid_argument(std::string("model: ") + e.what());
-  }
-  const std::string campaign_sha = solver::sha256_file_hex(opt_.campaign_path);
-  const std::string station_sha = solver::sha256_file_hex(opt_.station_path);
-  std::string db = !opt_.db.empty() ? opt_.db : st.db;
-  if (!records::is_postgres_url(db) && !fs::path(db).is_absolute()) db = (out / db).string();
+  const std::string& campaign_sha = in.campaign_sha256;
+  const std::string& station_sha = in.station_sha256;
+  const std::string& db = in.db;
   res.db = db;
 
   fs::create_directories(out);
@@ -808,7 +789,7 @@ StationRunResult StationRunner::run() {
       present = true;
     } catch (const records::RecordError&) {
     }
-    if (!present) record_batch(*store, b, st, prov);
+    if (!present) record_batch(*store, b, prov);
     journal->append({{"type", "batch_recorded"}, {"id", prov.batch_id}, {"backend", store->backend()}});
   }
   res.batch_id = prov.batch_id;

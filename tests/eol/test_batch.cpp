@@ -129,7 +129,7 @@ TEST(Batch, DeadNodeFailsAloneOutlierIsMarkedOthersPass) {
   EXPECT_EQ(eol::batch_to_json(r)["units_passed"], 7);
   // Records: one per unit (the dead one too, with its reason) and the batch naming them.
   auto store = records::open_store((b.dir / "records.sqlite").string());
-  const std::string bid = eol::record_batch(*store, r, b.st, {"batch-test", "eol", std::string(64, '0'), "t0", "t1"});
+  const std::string bid = eol::record_batch(*store, r, {"batch-test", "eol", std::string(64, '0'), "t0", "t1"});
   const records::BatchRecord br = store->get_batch(bid);
   EXPECT_EQ(br.units_passed, 7);
   ASSERT_EQ(br.units.size(), 8u);
