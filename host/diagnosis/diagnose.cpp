@@ -1158,8 +1158,11 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     cs.score = -chi2_log10_sf(cs.lr, dof);
     cs.delta_bic = -cs.lr + dof * std::log(std::max(2, n_obs));
     cs.heldout_chi2_gain = ho_gain;
-    // Shrink of the held-out χ² excess (withheld segments) of the axes the effect acts on.
-    cs.heldout_shrink_pct = excess_cur > 0 ? 100.0 * ho_gain / excess_cur : 0.0;
+    // Shrink of the held-out χ² excess (withheld segments) of the axes the effect acts on. Axes already at or
+    // below their held-out expectation (a noise model that errs conservative, e.g. a bias instability read
+    // from a soak a thermal effect moved) have no excess to shrink: a positive held-out gain then counts as
+    // all of it, and the gain (> 2·dof) and the significance decide alone.
+    cs.heldout_shrink_pct = excess_cur > 0 ? 100.0 * ho_gain / excess_cur : (ho_gain > 0 ? 100.0 : 0.0);
     for (auto& m : mags) {
       m.sigma *= std::sqrt(s2);
       cs.min_detectable.push_back(5.0 * m.sigma);
@@ -1308,40 +1311,50 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     te.sigma_ppm = swp > 0 ? 1.0 / std::sqrt(swp) : 1.0;
   }
 
-  // ---- Unexplained: axes still above their noise. Effects of that sensor that leave the gap where it was
-  // are withdrawn (they are not an explanation); the residual's signature is ranked.
+  // ---- Unexplained: axes still above their noise. Each selected effect of a sensor with such an axis is
+  // judged on its own (leave-one-out on the held-out χ² excess, per axis): it stays when it is an
+  // explanation somewhere. On an unexplained axis the held-out gain is contaminated by the signal no catalog
+  // effect describes (a partial projection of it onto any regressor also "shrinks" the gap), so there it
+  // must remove at least (1 − unexplained_keep_frac) of the excess it faces; on an explained axis it must be
+  // needed for the axis to be explained, or remove at least one noise variance per block (its held-out
+  // signal is as large as the noise). The others are withdrawn: they are not an explanation. Judging each
+  // effect alone keeps a sensor's real effects when one large effect leaves an axis above the noise.
   auto over = [&](const Gap& g, int a) { return g.chi2_dof[static_cast<std::size_t>(a)] > o.unexplained_chi2_dof; };
   std::array<std::vector<std::string>, 2> withdrawn;
   for (int si = 0; si < 2; ++si) {
-    std::vector<int> ua;
-    for (int a = 3 * si; a < 3 * si + 3; ++a)
-      if (over(R.gap_after, a)) ua.push_back(a);
+    bool any_over = false;
+    for (int a = 3 * si; a < 3 * si + 3; ++a) any_over = any_over || over(R.gap_after, a);
     std::vector<std::pair<int, int>> sel_s;
     for (const auto& ef : cur_effects)
       if (ef.first == si && !fixed_effects.count(ef)) sel_s.push_back(ef);
-    if (ua.empty() || sel_s.empty()) continue;
-    std::set<ParamId> without = cur;
-    std::set<std::pair<int, int>> ew = cur_effects;
-    for (const auto& ef : sel_s) remove_effect(without, ew, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
-    const Gap g0 = gap_of(without);
-    // Judged on the held-out χ² excess of all three axes of the sensor: effects that explain another axis
-    // of the sensor are kept even when one axis stays unexplained.
-    double before = 0, after = 0;
-    for (int a = 3 * si; a < 3 * si + 3; ++a) {
-      before += pos(g0.chi2_dof[static_cast<std::size_t>(a)] - 1.0);
-      after += pos(R.gap_after.chi2_dof[static_cast<std::size_t>(a)] - 1.0);
-    }
-    if (before > 0 && after <= o.unexplained_keep_frac * before) continue;
+    if (!any_over || sel_s.empty()) continue;
+    std::vector<std::pair<int, int>> drop;
     for (const auto& ef : sel_s) {
+      std::set<ParamId> without = cur;
+      std::set<std::pair<int, int>> ew = cur_effects;
+      remove_effect(without, ew, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
+      const Gap g0 = gap_of(without);
+      bool explains = false;
+      for (int a = 3 * si; a < 3 * si + 3; ++a) {
+        const double c0 = g0.chi2_dof[static_cast<std::size_t>(a)];
+        const double c1 = R.gap_after.chi2_dof[static_cast<std::size_t>(a)];
+        const double shrink = pos(c0 - 1.0) - pos(c1 - 1.0);
+        if (over(R.gap_after, a))
+          explains = explains || (shrink > 0 && shrink >= (1.0 - o.unexplained_keep_frac) * pos(c0 - 1.0));
+        else
+          explains = explains || c0 > o.unexplained_chi2_dof || shrink >= 1.0;
+      }
+      if (!explains) drop.push_back(ef);
+    }
+    for (const auto& ef : drop) {
       const std::string sn = model::sensor_name(static_cast<Sensor>(ef.first));
       const std::string en = model::effect_info(static_cast<Effect>(ef.second)).name;
       withdrawn[static_cast<std::size_t>(si)].push_back(sn + "." + en);
       R.selected.erase(std::remove_if(R.selected.begin(), R.selected.end(),
                                       [&](const Step& st) { return st.sensor == sn && st.effect == en; }),
                        R.selected.end());
+      remove_effect(cur, cur_effects, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
     }
-    cur = without;
-    cur_effects = ew;
   }
   R.gap_after = gap_of(cur);
   R.final_ids = cur;
