@@ -759,7 +759,7 @@ double plausible_limit(const model::ParamInfo& p) {
       if (p.power == 2) return acc ? 1e-3 : 0.05;
       return acc ? 1e-4 : 0.02;
     case Effect::kScaleAsymmetry: return 0.02;
-    case Effect::kCrossCoupling: return acc ? 1e-3 : 5e-3;
+    case Effect::kCrossCoupling: return acc ? 1e-3 : 0.05;  // gyro: 10x a consumer MEMS part (5e-3 1/(rad/s))
     case Effect::kGSensitivity: return 1e-3;
     case Effect::kG2Sensitivity: return 2e-5;
     case Effect::kSizeEffect: return 0.05;
