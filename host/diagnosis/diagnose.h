@@ -85,8 +85,9 @@ struct Options {
   bool check_plausibility = true;
   // An axis whose held-out χ²/dof (withheld segments) stays above this after selection is "unexplained".
   double unexplained_chi2_dof = 3.0;
-  // A sensor's selected effects are withdrawn when its unexplained axes keep more than this fraction of their
-  // gap: effects that leave the gap where it was are not an explanation.
+  // On a sensor with an unexplained axis, each selected effect is judged alone (leave-one-out): on an
+  // unexplained axis it must remove more than (1 − this) of the held-out χ² excess it faces, on an explained
+  // axis be needed to explain it (or remove ≥ 1 χ²/dof); otherwise it is withdrawn (not an explanation).
   double unexplained_keep_frac = 0.5;
   // Effects in the model from the start and never dropped (set internally: timing after re-evaluation).
   std::vector<std::pair<model::Sensor, model::Effect>> forced;
