@@ -1,13 +1,16 @@
 // Station figures (issue 14, not a test): units per hour of the live multi-unit runner on bench-sim with
 // the end-of-line campaign (docs/examples/campaign-eol.json, time-scaled), for N units on one station.
 // Per N: simulated campaign hours, wall time (collection at the time scale, then the finish on the
-// host), units per simulated hour = N / (campaign + finish), finish CPU per unit (solve, table, flash,
-// read back, verify, record: its thread's CPU), and this process's peak RSS (the whole station run).
+// host), units per simulated hour = passed units / (campaign + finish) (a failed unit is no output),
+// finish CPU per unit (solve, table, flash, read back, verify, record: its thread's CPU), this process's peak RSS (the whole station run, cumulative
+// over the N list), the largest child's peak RSS (bench-sim, virtual IMUs) and the 1-minute load average at
+// the end of the row (the machines are shared: a figure without the load is not comparable).
 //   eol_bench_station [N list, comma separated = 1,4,8,16] [time_scale=200] [rate_hz=10] [out_dir=/tmp/imuforge-station]
 //                     [campaign=docs/examples/campaign-eol.json] [model=docs/examples/model-thermal.json]
 #include <sys/resource.h>
 
 #include <cstdio>
+#include <cstdlib>  // getloadavg
 #include <cstdlib>
 #include <filesystem>
 #include <sstream>
@@ -28,8 +31,8 @@ int main(int argc, char** argv) {
   const double rate = argc > 3 ? std::atof(argv[3]) : 10.0;
   const fs::path root = argc > 4 ? argv[4] : "/tmp/imuforge-station";
   const std::string campaign = argc > 5 ? argv[5] : "", model = argc > 6 ? argv[6] : "";
-  std::printf("| N | campaign (sim h) | collect wall s | finish wall s | units/h | finish CPU s/unit | pass | early stop | peak RSS MB |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| N | campaign (sim h) | collect wall s | finish wall s | units/h | finish CPU s/unit | pass | early stop | peak RSS MB | child peak RSS MB | load 1 min |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (int n : ns) {
     imuforge::eol::DemoOptions o;
     o.out_dir = (root / ("n" + std::to_string(n))).string();
@@ -49,12 +52,17 @@ int main(int argc, char** argv) {
     (void)code;
     rusage ru{};
     getrusage(RUSAGE_SELF, &ru);
+    rusage ruc{};
+    getrusage(RUSAGE_CHILDREN, &ruc);
+    double load[1] = {0};
+    if (getloadavg(load, 1) != 1) load[0] = -1;
     double cpu = 0;
     for (double c : st.finish_cpu_s) cpu += c;
     const double hours = (st.campaign_time_s + st.finish_wall_s) / 3600.0;
-    std::printf("| %d | %.2f | %.0f | %.0f | %.1f | %.2f | %d/%d | %s | %.0f |\n", n, st.campaign_time_s / 3600.0,
-                st.collect_wall_s, st.finish_wall_s, n / hours, cpu / n, st.passed, st.units, st.early_stopped ? "yes" : "no",
-                static_cast<double>(ru.ru_maxrss) / 1024.0);
+    std::printf("| %d | %.2f | %.0f | %.0f | %.1f | %.2f | %d/%d | %s | %.0f | %.0f | %.1f |\n", n, st.campaign_time_s / 3600.0,
+                st.collect_wall_s, st.finish_wall_s, st.passed / hours, cpu / n, st.passed, st.units, st.early_stopped ? "yes" : "no",
+                static_cast<double>(ru.ru_maxrss) / 1024.0,
+                static_cast<double>(ruc.ru_maxrss) / 1024.0, load[0]);
     std::fflush(stdout);
   }
   return 0;
