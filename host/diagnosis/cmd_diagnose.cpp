@@ -164,6 +164,9 @@ int run_diagnose(int argc, char** argv) {
       if (explain_poses) std::printf("%s", poses::explain_table(rf->detection()).c_str());
       std::printf("reference-free: %d static poses (%.0f s); gravity-magnitude fit with %d parameters: RMS over poses %.4g -> %.4g m/s^2\n",
                   rf->info().poses, rf->info().static_s, rf->info().calibrated_params, rf->info().accel_rms_before, rf->info().accel_rms_after);
+      std::string added;
+      for (const auto& t : rf->info().terms_added) added += (added.empty() ? "" : ", ") + t;
+      std::printf("reference-free term selection (as solve): added [%s]; %s\n", added.c_str(), rf->info().terms_note.c_str());
     } else if (mode == "fixture" && !any_ref) {
       std::fprintf(stderr, "imuforge diagnose: %s has no reference columns; use --mode reference-free or --sim\n", log_path.c_str());
       return app::kExitFailed;

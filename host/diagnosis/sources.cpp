@@ -86,8 +86,19 @@ ReferenceFreeSource::ReferenceFreeSource(SampleSource& inner, double g, const po
   std::array<bool, 9> active{};
   for (int k = 0; k < 9; ++k) active[static_cast<std::size_t>(k)] = full || (diag_only && k < 6);
   poses::GravityFit fit;
-  if (full || diag_only) {
+  if (full) {
+    // The same term selection as `imuforge solve --mode reference-free` (leave-poses-out CV over the
+    // catalog's accelerometer terms), so one log gets one accelerometer answer from both commands.
+    poses::TermSelection ts = poses::select_gravity_terms(ps, info_.gravity_mps2, active);
+    fit = std::move(ts.fit);
+    for (model::ParamId id : ts.added) info_.terms_added.push_back(model::param_info(id).name);
+    info_.terms_note = ts.note;
+    info_.calibrated_params += static_cast<int>(ts.added.size());
+    info_.accel_rms_before = fit.rms_before;
+    info_.accel_rms_after = fit.rms_after;
+  } else if (diag_only) {
     fit = poses::fit_gravity(ps, info_.gravity_mps2, active);
+    info_.terms_note = "not tried: fewer than 12 poses";
     info_.accel_rms_before = fit.rms_before;
     info_.accel_rms_after = fit.rms_after;
   } else {

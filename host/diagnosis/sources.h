@@ -47,10 +47,14 @@ class PairedSource : public SampleSource {
 // carry no reference. What this cannot see: any error along the pose direction orthogonal to |f|.
 struct ReferenceFreeInfo {
   int poses = 0;
-  int calibrated_params = 0;  // 9 (≥12 poses), 6 (bias + scales, 7..11 poses) or 0 (raw directions)
+  int calibrated_params = 0;  // 9 + terms_added (≥12 poses), 6 (bias + scales, 7..11 poses) or 0 (raw directions)
   double static_s = 0;
   double gravity_mps2 = 9.80665;
   double accel_rms_before = 0, accel_rms_after = 0;  // RMS of |f| − g over pose means, raw vs calibrated
+  // With ≥ 12 poses the fit is poses::select_gravity_terms's, as in `imuforge solve --mode reference-free`
+  // (cal.json reference_free.term_selection): catalog terms added by leave-poses-out CV, and why it stopped.
+  std::vector<std::string> terms_added;
+  std::string terms_note;
 };
 class ReferenceFreeSource : public SampleSource {
  public:

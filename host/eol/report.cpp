@@ -100,6 +100,14 @@ std::string render_report(const ReportData& d) {
     }
   }
 
+  if (!d.rejections.empty()) {
+    h += "<h2>Static steps left out</h2><p>The pose detector (host/poses, still_part) found no still part in these "
+         "static steps, so their accelerometer rows were not used.</p><table><tr><th>segment</th><th>label</th><th>reason</th></tr>";
+    for (const auto& r : d.rejections)
+      h += "<tr><td>" + std::to_string(r.segment) + "</td><td>" + esc(r.label) + "</td><td>" + esc(r.reason) + "</td></tr>";
+    h += "</table>";
+  }
+
   h += "<h2>Temperature profile</h2>";
   h += chart("temperature", {{"IMU die", io::chart_color(1), d.imu_temp_C, false}, {"chamber air", io::chart_color(0), d.chamber_temp_C, false}},
              "run time (s, fixture clock)", "°C");

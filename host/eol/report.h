@@ -16,6 +16,7 @@ struct ReportData {
   records::CalibrationRecord rec;       // verdict, parameters, verification, provenance
   std::string db;                       // where the record went
   std::vector<SegmentResidual> residuals;
+  std::vector<Tracker::Rejection> rejections;          // static steps the pose detector left out, why
   std::vector<std::pair<double, double>> imu_temp_C;      // (run time s, IMU temperature)
   std::vector<std::pair<double, double>> chamber_temp_C;  // (run time s, chamber air)
   std::vector<std::string> names;

@@ -420,7 +420,13 @@ RunResult Runner::run() {
                        {"label", si.label}, {"index", seg_files.size()}, {"file", "segments/" + seg_name + ".bin"},
                        {"sha256", sha}, {"rows", rows.size()}, {"t_start_s", t_start}, {"t_end_s", t_end},
                        {"lost", ss.lost}, {"duplicated", ss.duplicated}, {"reordered", ss.reordered}});
+      const std::size_t rejected_before = tracker.rejections().size();
       tracker.add_segment(meta, rows, static_cast<int>(seg_files.size()), si.label);
+      // The operator must see why a static step added no accelerometer rows. Journalled once, live: on
+      // --resume the tracker re-derives the same rejection from the same safe segment file.
+      for (std::size_t k = rejected_before; k < tracker.rejections().size(); ++k)
+        journal->append({{"type", "segment_rejected"}, {"key", si.key}, {"index", tracker.rejections()[k].segment},
+                         {"label", tracker.rejections()[k].label}, {"reason", tracker.rejections()[k].reason}});
       tracker.add_fixture_segment(file);
       seg_files.push_back(file);
       done.insert(si.key);
@@ -778,6 +784,7 @@ RunResult Runner::run() {
   rd.rec = rec;
   rd.db = db;
   rd.residuals = tracker.residuals();
+  rd.rejections = tracker.rejections();
   rd.schedule_time_s = res.schedule_time_s;
   rd.segments_total = total_steps;
   rd.segments_used = static_cast<int>(seg_files.size());

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "host/eol/report.h"
 #include "host/eol/tracker.h"
 #include "host/model/sensor_model.h"
 
@@ -92,6 +93,22 @@ TEST(TrackerStill, ADwellThatNeverHeldIsRejectedWithTheDetectorsReason) {
   EXPECT_NE(t.rejections()[0].reason.find("rejected"), std::string::npos) << t.rejections()[0].reason;
   std::printf("turning dwell: %s\n", t.rejections()[0].reason.c_str());
   EXPECT_EQ(t.segments(), 0);
+}
+
+// The unit report shows the operator which static steps were left out and why (the runner also journals
+// them as segment_rejected); a run without rejections has no such section.
+TEST(TrackerStill, TheReportListsRejectedStepsWithTheirReason) {
+  eol::Tracker t(basic());
+  t.set_noise(0.002, 1e-4);
+  EXPECT_FALSE(t.add_segment(meta(), dwell(0.0, 0.5, 8), 3, "x <down>"));
+  eol::ReportData d;
+  d.rejections = t.rejections();
+  const std::string html = eol::render_report(d);
+  const auto at = html.find("Static steps left out");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_NE(html.find("x &lt;down&gt;", at), std::string::npos);
+  EXPECT_NE(html.find(t.rejections()[0].reason.substr(0, 20), at), std::string::npos);
+  EXPECT_EQ(eol::render_report(eol::ReportData{}).find("Static steps left out"), std::string::npos);
 }
 
 TEST(TrackerStill, ARateRunIsNotJudgedByThePoseDetector) {
