@@ -1,3 +1,4 @@
+#include "host/physics/units.h"
 #include "host/benchsim/register_bank.h"
 
 #include <algorithm>
@@ -12,7 +13,7 @@ using fixture::Point;
 using fixture::RegisterMap;
 
 namespace {
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
+using physics::kDeg;  // host/physics/units.h
 
 double wrap_deg(double a) {
   double w = std::fmod(a + 180.0, 360.0);

@@ -1,3 +1,4 @@
+#include "host/physics/units.h"
 #include "host/io/campaign_file.h"
 #include "host/benchsim/world_config.h"
 
@@ -14,7 +15,7 @@
 namespace imuforge::benchsim {
 
 namespace {
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
+using physics::kDeg;  // host/physics/units.h
 }
 
 void apply_world_json(WorldConfig& wc, const nlohmann::json& j, const std::string& origin) {

@@ -33,12 +33,7 @@ double thread_cpu_s() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-std::string fmt(double x, const char* f = "%.4g") {
-  if (!std::isfinite(x)) return "n/a";
-  char b[64];
-  std::snprintf(b, sizeof b, f, x);
-  return b;
-}
+using io::fmt_num;
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -259,22 +254,22 @@ static std::string strip(const ParameterSpread& s, const BatchOutcome& b, double
   }
   auto x = [&](double v) { return L + (W - L - R) * (v - lo) / (hi - lo); };
   std::string o = "<svg xmlns='http://www.w3.org/2000/svg' width='" + std::to_string(W) + "' height='" + std::to_string(H) + "'>";
-  o += "<rect x='" + fmt(x(s.median - k * s.robust_sigma), "%.1f") + "' y='8' width='" +
-       fmt(std::max(1.0, x(s.median + k * s.robust_sigma) - x(s.median - k * s.robust_sigma)), "%.1f") +
+  o += "<rect x='" + fmt_num(x(s.median - k * s.robust_sigma), "%.1f") + "' y='8' width='" +
+       fmt_num(std::max(1.0, x(s.median + k * s.robust_sigma) - x(s.median - k * s.robust_sigma)), "%.1f") +
        "' height='22' fill='#e8f0fa'/>";
-  o += "<line x1='" + fmt(x(s.median), "%.1f") + "' x2='" + fmt(x(s.median), "%.1f") + "' y1='6' y2='32' stroke='#1f77b4'/>";
+  o += "<line x1='" + fmt_num(x(s.median), "%.1f") + "' x2='" + fmt_num(x(s.median), "%.1f") + "' y1='6' y2='32' stroke='#1f77b4'/>";
   int row = 0;
   for (const auto& u : b.units) {
     const int i = u.solved ? u.estimate.index_of(s.name) : -1;
     if (i < 0 || !std::isfinite(u.estimate.value[i])) continue;
     const bool out = std::find(u.outliers.begin(), u.outliers.end(), s.name) != u.outliers.end();
     const double y = 12 + 14 * ((row++ % 3) / 2.0);
-    o += "<circle cx='" + fmt(x(u.estimate.value[i]), "%.1f") + "' cy='" + fmt(y, "%.1f") + "' r='" + (out ? "4" : "2.5") +
+    o += "<circle cx='" + fmt_num(x(u.estimate.value[i]), "%.1f") + "' cy='" + fmt_num(y, "%.1f") + "' r='" + (out ? "4" : "2.5") +
          "' fill='" + (out ? "#d62728" : u.pass ? "#333" : "none") + "' stroke='" + (out ? "#d62728" : "#333") + "'><title>" +
          html_escape(u.slot + " " + u.serial) + "</title></circle>";
   }
-  o += "<text x='" + std::to_string(L) + "' y='44' font-size='9'>" + fmt(lo) + "</text><text x='" + std::to_string(W - R) +
-       "' y='44' font-size='9' text-anchor='end'>" + fmt(hi) + "</text></svg>";
+  o += "<text x='" + std::to_string(L) + "' y='44' font-size='9'>" + fmt_num(lo) + "</text><text x='" + std::to_string(W - R) +
+       "' y='44' font-size='9' text-anchor='end'>" + fmt_num(hi) + "</text></svg>";
   return o;
 }
 
@@ -302,10 +297,10 @@ std::string render_batch_report(const BatchOutcome& b, const std::string& title)
       std::string list;
       for (const auto& p : u.outliers) list += (list.empty() ? "" : ", ") + p;
       h += "<li class='warn'><b>" + html_escape(u.slot + " " + u.serial) + "</b> " + (u.pass ? "passes but is " : "") +
-           "far from its batch (> " + fmt(def.outlier_k, "%.0f") + " robust σ): " + html_escape(list) + "</li>";
+           "far from its batch (> " + fmt_num(def.outlier_k, "%.0f") + " robust σ): " + html_escape(list) + "</li>";
     }
   h += "</ul><p>" + std::to_string(suspicious) + " passing unit(s) suspicious. Solved on " + std::to_string(b.threads) +
-       " thread(s) in " + fmt(b.wall_s, "%.1f") + " s wall.</p>";
+       " thread(s) in " + fmt_num(b.wall_s, "%.1f") + " s wall.</p>";
   h += "<h2>Units</h2><table><tr><th>slot</th><th>serial</th><th>verdict</th><th>reasons</th><th>outlying parameters</th>"
        "<th>solve CPU s</th></tr>";
   for (const auto& u : b.units) {
@@ -314,12 +309,12 @@ std::string render_batch_report(const BatchOutcome& b, const std::string& title)
     for (const auto& x : u.outliers) o += (o.empty() ? "" : ", ") + html_escape(x);
     h += "<tr><td>" + html_escape(u.slot) + "</td><td>" + html_escape(u.serial) + "</td><td class='" +
          (u.pass ? "pass'>PASS" : "fail'>FAIL") + "</td><td>" + r + "</td><td class='warn'>" + o + "</td><td>" +
-         fmt(u.cpu_s, "%.2f") + "</td></tr>";
+         fmt_num(u.cpu_s, "%.2f") + "</td></tr>";
   }
   h += "</table><h2>Spread of each parameter over the batch</h2><p>Dot: a unit (hollow: failed, red: outlier); "
-       "line: batch median; band: ±" + fmt(def.outlier_k, "%.0f") + " robust σ (1.4826 × MAD).</p><div class='grid'>";
+       "line: batch median; band: ±" + fmt_num(def.outlier_k, "%.0f") + " robust σ (1.4826 × MAD).</p><div class='grid'>";
   for (const auto& s : b.spread)
-    h += "<div><b>" + html_escape(s.name) + "</b> median " + fmt(s.median) + ", robust σ " + fmt(s.robust_sigma) + "<br>" +
+    h += "<div><b>" + html_escape(s.name) + "</b> median " + fmt_num(s.median) + ", robust σ " + fmt_num(s.robust_sigma) + "<br>" +
          strip(s, b, def.outlier_k) + "</div>";
   h += "</div></body></html>\n";
   return h;

@@ -16,7 +16,7 @@ namespace {
 
 using io::html_escape;
 const auto esc = html_escape;
-std::string fmt(double x, const char* f = "%.4g") { return io::fmt_num(x, f); }
+using io::fmt_num;
 using Series = io::ChartSeries;
 std::string chart(const std::string& title, const std::vector<Series>& series, const std::string& xlabel,
                   const std::string& ylabel, bool logy = false, double hline = NAN, int W = 760, int H = 260) {
@@ -29,16 +29,16 @@ std::string param_bar(double v, double s, double lim) {
   double scale = lim > 0 ? lim : std::max(std::fabs(v) + 2 * s, 1e-300);
   auto X = [&](double x) { return std::clamp(C + x / scale * (W / 2 - 4), 1.0, W - 1); };
   std::string o = "<svg xmlns='http://www.w3.org/2000/svg' width='220' height='16'>";
-  o += "<line x1='" + fmt(X(-scale)) + "' x2='" + fmt(X(scale)) + "' y1='8' y2='8' stroke='#ccc'/>";
+  o += "<line x1='" + fmt_num(X(-scale)) + "' x2='" + fmt_num(X(scale)) + "' y1='8' y2='8' stroke='#ccc'/>";
   if (lim > 0) {
-    o += "<line x1='" + fmt(X(-lim)) + "' x2='" + fmt(X(-lim)) + "' y1='1' y2='15' stroke='#d62728'/>";
-    o += "<line x1='" + fmt(X(lim)) + "' x2='" + fmt(X(lim)) + "' y1='1' y2='15' stroke='#d62728'/>";
+    o += "<line x1='" + fmt_num(X(-lim)) + "' x2='" + fmt_num(X(-lim)) + "' y1='1' y2='15' stroke='#d62728'/>";
+    o += "<line x1='" + fmt_num(X(lim)) + "' x2='" + fmt_num(X(lim)) + "' y1='1' y2='15' stroke='#d62728'/>";
   }
-  o += "<line x1='" + fmt(C) + "' x2='" + fmt(C) + "' y1='3' y2='13' stroke='#999'/>";
+  o += "<line x1='" + fmt_num(C) + "' x2='" + fmt_num(C) + "' y1='3' y2='13' stroke='#999'/>";
   if (std::isfinite(v) && std::isfinite(s)) {
-    o += "<rect x='" + fmt(X(v - 2 * s)) + "' y='5' width='" + fmt(std::max(1.0, X(v + 2 * s) - X(v - 2 * s))) +
+    o += "<rect x='" + fmt_num(X(v - 2 * s)) + "' y='5' width='" + fmt_num(std::max(1.0, X(v + 2 * s) - X(v - 2 * s))) +
          "' height='6' fill='#9ecae1'/>";
-    o += "<circle cx='" + fmt(X(v)) + "' cy='8' r='3' fill='#1f77b4'/>";
+    o += "<circle cx='" + fmt_num(X(v)) + "' cy='8' r='3' fill='#1f77b4'/>";
   }
   return o + "</svg>";
 }
@@ -70,15 +70,15 @@ std::string render_report(const ReportData& d) {
        (d.segments_resumed ? ", " + std::to_string(d.segments_resumed) + " recovered from the journal after a restart" : "") +
        "</td></tr><tr><th>log</th><td>" + esc(r.log_path) + "<br>sha256 " + esc(r.log_sha256) +
        "</td></tr><tr><th>table</th><td>" + std::to_string(r.table_blob.size()) + " bytes, CRC-32 " +
-       fmt(static_cast<double>(r.table_crc32), "%08.0f") + "</td></tr><tr><th>record</th><td>" + esc(r.id) + " in " +
+       fmt_num(static_cast<double>(r.table_crc32), "%08.0f") + "</td></tr><tr><th>record</th><td>" + esc(r.id) + " in " +
        esc(d.db) + "</td></tr></table>";
   if (!d.stream_note.empty()) h += "<p>" + esc(d.stream_note) + "</p>";
 
   h += "<h2>Parameters, σ and limits</h2><p>Bar: estimate (dot) ± 2σ (blue) against the station's ±limit (red).</p>";
   h += "<table><tr><th>parameter</th><th>value</th><th>σ</th><th>limit |value|</th><th>spec σ</th><th>ok</th><th></th></tr>";
   for (const auto& p : r.parameters)
-    h += "<tr><td>" + esc(p.name) + "</td><td>" + fmt(p.value) + "</td><td>" + fmt(p.sigma) + "</td><td>" +
-         (p.limit_abs > 0 ? fmt(p.limit_abs) : "-") + "</td><td>" + (p.sigma_spec > 0 ? fmt(p.sigma_spec) : "-") +
+    h += "<tr><td>" + esc(p.name) + "</td><td>" + fmt_num(p.value) + "</td><td>" + fmt_num(p.sigma) + "</td><td>" +
+         (p.limit_abs > 0 ? fmt_num(p.limit_abs) : "-") + "</td><td>" + (p.sigma_spec > 0 ? fmt_num(p.sigma_spec) : "-") +
          "</td><td class='" + (p.pass ? "pass'>ok" : "fail'>FAIL") + "</td><td>" + param_bar(p.value, p.sigma, p.limit_abs) +
          "</td></tr>";
   h += "</table>";
@@ -130,7 +130,7 @@ std::string render_report(const ReportData& d) {
        "loaded with the read-back table, compensates the samples at each verification pose.</p>";
   h += "<table><tr><th>check</th><th>residual</th><th>limit</th><th>ok</th></tr>";
   for (const auto& v : r.verification)
-    h += "<tr><td>" + esc(v.name) + "</td><td>" + fmt(v.residual) + "</td><td>" + (v.limit > 0 ? fmt(v.limit) : "-") +
+    h += "<tr><td>" + esc(v.name) + "</td><td>" + fmt_num(v.residual) + "</td><td>" + (v.limit > 0 ? fmt_num(v.limit) : "-") +
          "</td><td class='" + (v.pass ? "pass'>ok" : "fail'>FAIL") + "</td></tr>";
   h += "</table><p style='color:#888'>imuforge " + esc(r.software_version) + "</p></body></html>\n";
   return h;

@@ -2,6 +2,7 @@
 // finish share one journal-backed state (segments made safe, record id journaled before the insert) whose
 // ordering is the crash-consistency guarantee (docs/eol.md); the multi-unit StationRunner finishes each
 // unit through this same run() with a bench that refuses moves.
+#include "host/physics/units.h"
 #include "host/io/campaign_file.h"
 #include "host/eol/runner.h"
 
@@ -38,7 +39,7 @@ namespace imuforge::eol {
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
+using physics::kDeg;  // host/physics/units.h
 
 // Wraps a port call so any failure becomes a PeerError naming what was being done.
 template <typename F>

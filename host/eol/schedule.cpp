@@ -1,3 +1,4 @@
+#include "host/physics/units.h"
 #include "host/eol/schedule.h"
 
 #include <cmath>
@@ -13,7 +14,7 @@ namespace imuforge::eol {
 std::string step_key(int phase, int step) { return "p" + std::to_string(phase) + "s" + std::to_string(step); }
 
 namespace {
-constexpr double kDeg = M_PI / 180.0;
+using physics::kDeg;  // host/physics/units.h
 }
 
 physics::ImuKinematics Kin::at(const std::array<double, 3>& angle_deg, const std::array<double, 3>& rate_dps) const {

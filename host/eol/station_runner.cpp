@@ -1,5 +1,6 @@
 // The live multi-unit run: see station_runner.h. One piece because collection, per-unit resume and the
 // batch record share the unit state below; the per-unit finish is the single-unit Runner's.
+#include "host/physics/units.h"
 #include "host/eol/station_runner.h"
 
 #include <time.h>
@@ -35,7 +36,7 @@ namespace imuforge::eol {
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
+using physics::kDeg;  // host/physics/units.h
 
 double now_wall() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();

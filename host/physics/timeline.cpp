@@ -1,3 +1,4 @@
+#include "host/physics/units.h"
 #include "host/physics/timeline.h"
 
 #include <algorithm>
@@ -10,7 +11,7 @@ namespace imuforge::physics {
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
+using physics::kDeg;  // host/physics/units.h
 
 Eigen::Matrix3d exp_so3(const Eigen::Vector3d& n, double ang) {
   return Eigen::AngleAxisd(ang, n).toRotationMatrix();

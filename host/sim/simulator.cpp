@@ -1,3 +1,4 @@
+#include "host/physics/units.h"
 #include "host/sim/simulator.h"
 
 #include <cmath>
@@ -19,7 +20,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
+using physics::kDeg;  // host/physics/units.h
 
 struct SimExtras {
   double encoder_noise_rad = 0, rate_noise_rad_s = 0, temp_noise_C = 0, chamber_noise_C = 0;

@@ -25,7 +25,7 @@ nlohmann::json TableReport::to_json() const {
 }
 
 namespace {
-const char* kAx = "xyz";
+const char* kAxisLetter = "xyz";
 
 // The calibrated sensor model at one temperature: b(T), M(T) per triad, from polynomial or per-plateau
 // parameters. Throws for parameters the table cannot express.
@@ -70,20 +70,20 @@ TriadPoly triad_poly(const Estimate& e, const std::string& s, int plateau) {
     return i >= 0 ? e.value[i] : 0.0;
   };
   for (int j = 0; j < 3; ++j) {
-    t.b[0][j] = get(s + ".bias." + kAx[j]);
-    t.M[0](j, j) = get(s + ".scale." + kAx[j]);
+    t.b[0][j] = get(s + ".bias." + kAxisLetter[j]);
+    t.M[0](j, j) = get(s + ".scale." + kAxisLetter[j]);
     for (int p = 1; p <= 3; ++p) {
-      t.b[static_cast<size_t>(p)][j] = get(s + ".bias_temp." + kAx[j] + ".t" + std::to_string(p));
-      t.M[static_cast<size_t>(p)](j, j) = get(s + ".scale_temp." + kAx[j] + ".t" + std::to_string(p));
+      t.b[static_cast<size_t>(p)][j] = get(s + ".bias_temp." + kAxisLetter[j] + ".t" + std::to_string(p));
+      t.M[static_cast<size_t>(p)](j, j) = get(s + ".scale_temp." + kAxisLetter[j] + ".t" + std::to_string(p));
     }
     for (int k = 0; k < 3; ++k) {
       if (k == j) continue;
-      const std::string c = std::string(1, kAx[j]) + kAx[k];
+      const std::string c = std::string(1, kAxisLetter[j]) + kAxisLetter[k];
       t.M[0](j, k) = get(s + ".misalign." + c);
       for (int p = 1; p <= 3; ++p) t.M[static_cast<size_t>(p)](j, k) = get(s + ".misalign_temp." + c + ".t" + std::to_string(p));
     }
     if (s == "gyro")
-      for (int k = 0; k < 3; ++k) t.G(j, k) = get(s + ".g_sensitivity." + std::string(1, kAx[j]) + kAx[k]);
+      for (int k = 0; k < 3; ++k) t.G(j, k) = get(s + ".g_sensitivity." + std::string(1, kAxisLetter[j]) + kAxisLetter[k]);
   }
   return t;
 }
