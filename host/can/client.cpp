@@ -259,6 +259,11 @@ std::unique_ptr<Client> Client::connect(const std::string& bus_spec, std::uint8_
   if (bs.kind == hal::BusSpec::Kind::kVirtual) {
     auto port = hal::open_can_port(bus_spec, &err);
     if (!port) throw Error(kErrTransport, "CAN bus " + bus_spec + ": " + err);
+    // Only this node's responses and stream: with N units on one virtual bus, every client reading
+    // every node's stream is what starved the command responses (docs/eol.md "Multi-unit stations").
+    std::vector<std::uint32_t> ids{proto::response_id(node_id, opt.extended_ids)};
+    for (std::uint8_t p = 0; p < proto::kPartCount; ++p) ids.push_back(proto::stream_id(node_id, p, opt.extended_ids));
+    if (!hal::set_can_filter(*port, ids, opt.extended_ids, &err)) throw Error(kErrTransport, "CAN bus " + bus_spec + ": " + err);
     t = std::make_unique<VirtualTransport>(std::move(port), node_id, opt.extended_ids);
   } else {
     t = std::make_unique<SocketCanTransport>(bus_spec, bs.name, node_id, opt.extended_ids);
