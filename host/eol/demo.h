@@ -52,7 +52,9 @@ int run_demo(const DemoOptions& opt);
 constexpr double kVirtualBusSamplesPerWallS = 16000.0;
 
 // The time scale a run of `slots` units at `rate_hz` simulated samples per second uses: `wanted`, or
-// lower if it would stream more than kVirtualBusSamplesPerWallS (unless `fixed`: the user's choice).
+// lower if it would stream more than kVirtualBusSamplesPerWallS, or ask a node for more than
+// kCanDeviceMaxNodeRateHz (host/eol/adapters.h: the run would silently sample fewer times per simulated
+// second), unless `fixed` (the user's choice).
 double demo_time_scale(double wanted, int slots, double rate_hz, bool fixed);
 
 // The docs/examples folder: examples_dir if set, else the source tree this binary was built from, else

@@ -7,11 +7,11 @@
 // and the virtual bus included), this process's peak RSS (the whole station run, cumulative
 // over the N list), the largest child's peak RSS (bench-sim, virtual IMUs) and the 1-minute load average at
 // the end of the row (the machines are shared: a figure without the load is not comparable).
-//   eol_bench_station [N list, comma separated = 1,4,8,16] [time_scale=200] [rate_hz=10] [out_dir=/tmp/imuforge-station]
+//   eol_bench_station [N list, comma separated = 1,4,8,16] [time_scale=100] [rate_hz=10] [out_dir=/tmp/imuforge-station]
 //                     [campaign=docs/examples/campaign-eol.json] [model=docs/examples/model-thermal.json]
 // time_scale is the most a row uses: each N runs at eol::demo_time_scale() (what the virtual CAN bus
-// carries, as `imuforge demo --slots N` does); the column "scale" says which. A time_scale with a
-// trailing '!' (e.g. 200!) is used as given, to measure the bus past that limit.
+// carries and the node's rate allows, as `imuforge demo --slots N` does); the column "scale" says which.
+// A time_scale with a trailing '!' (e.g. 200!) is used as given, to measure past those limits.
 #include <sys/resource.h>
 
 #include <cstdio>
@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
     std::stringstream ss(argc > 1 ? argv[1] : "1,4,8,16");
     for (std::string x; std::getline(ss, x, ',');) ns.push_back(std::atoi(x.c_str()));
   }
-  const double scale = argc > 2 ? std::atof(argv[2]) : 200.0;
+  const double scale = argc > 2 ? std::atof(argv[2]) : 100.0;
   const bool scale_fixed = argc > 2 && std::string(argv[2]).back() == '!';
   const double rate = argc > 3 ? std::atof(argv[3]) : 10.0;
   const fs::path root = argc > 4 ? argv[4] : "/tmp/imuforge-station";
