@@ -22,7 +22,7 @@ int run_demo_cmd(int argc, char** argv) {
   app.add_option("--out", o.out_dir, "output folder (default demo-out)");
   CLI::Option* ts_opt =
       app.add_option("--time-scale", o.time_scale,
-                     "simulated seconds per wall second (default 100; with --slots, lowered to what the virtual CAN bus carries)")
+                     "simulated seconds per wall second (default 100; lowered to what the virtual CAN bus and a 1000 Hz node rate allow)")
           ->check(CLI::PositiveNumber);
   app.add_option("--rate", o.stream_rate_hz, "IMU samples per simulated second (default 10)")->check(CLI::PositiveNumber);
   app.add_option("--campaign", o.campaign, "campaign file (default docs/examples/campaign-eol.json)");
