@@ -110,16 +110,23 @@ class VirtualPort final : public LinuxCanPort {
     }
     port_ = ntohs(a.sin_port);
     announce_ = dir_ + "/" + std::to_string(port_);
-    std::ofstream f(announce_);
-    f << ::getpid() << "\n";
-    f.close();
-    if (!f) {
-      *err = "virtual bus: cannot write " + announce_;
+    if (!write_announce(err)) {
       announce_.clear();
       return false;
     }
     refresh(true);
     return true;
+  }
+
+  // The endpoint's acceptance filter, announced in its file so that SENDERS skip it for other ids: a
+  // CAN controller's hardware filter costs the node nothing, while a filter applied after the datagram
+  // arrived would still cost every endpoint a system call per frame of every node (16 units: 31
+  // datagrams per frame, which is what lost the command responses under stream load).
+  bool set_filter(const std::vector<std::uint32_t>& ids, bool extended, std::string* err) {
+    filter_.clear();
+    for (std::uint32_t id : ids) filter_.push_back(filter_key(id, extended));
+    std::sort(filter_.begin(), filter_.end());
+    return write_announce(err);
   }
 
   int fd() const noexcept override { return fd_; }
@@ -130,7 +137,10 @@ class VirtualPort final : public LinuxCanPort {
     refresh(false);
     std::uint8_t buf[16];
     encode(frame, buf);
-    for (const sockaddr_in& p : peers_) {
+    const std::uint32_t key = filter_key(frame.id, frame.extended);
+    for (const Peer& peer : peers_) {
+      if (!peer.accept.empty() && !std::binary_search(peer.accept.begin(), peer.accept.end(), key)) continue;
+      const sockaddr_in& p = peer.addr;
       ssize_t n = -1;
       for (int attempt = 0; attempt < 3; ++attempt) {
         n = ::sendto(fd_, buf, sizeof buf, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&p), sizeof p);
@@ -175,7 +185,7 @@ class VirtualPort final : public LinuxCanPort {
     if (!force && !changed && t - last_refresh_ms_ < 500) return;
     mtime_ = st.st_mtim;
     last_refresh_ms_ = t;
-    std::vector<sockaddr_in> peers;
+    std::vector<Peer> peers;
     DIR* d = ::opendir(dir_.c_str());
     if (d == nullptr) return;
     while (dirent* e = ::readdir(d)) {
@@ -190,21 +200,63 @@ class VirtualPort final : public LinuxCanPort {
         ::unlink(path.c_str());
         continue;
       }
-      sockaddr_in a{};
-      a.sin_family = AF_INET;
-      a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-      a.sin_port = htons(static_cast<std::uint16_t>(port));
-      peers.push_back(a);
+      Peer peer;
+      peer.addr.sin_family = AF_INET;
+      peer.addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+      peer.addr.sin_port = htons(static_cast<std::uint16_t>(port));
+      // Optional second line: the ids the endpoint accepts (none: every frame). An unreadable list
+      // also means every frame: a peer gets too much rather than too little.
+      std::string word;
+      if (f >> word && word == "accept") {
+        for (unsigned long long k; f >> k;) peer.accept.push_back(static_cast<std::uint32_t>(k));
+        if (!f.eof()) peer.accept.clear();
+        std::sort(peer.accept.begin(), peer.accept.end());
+      }
+      peers.push_back(std::move(peer));
     }
     ::closedir(d);
     peers_.swap(peers);
+  }
+
+  struct Peer {
+    sockaddr_in addr{};
+    std::vector<std::uint32_t> accept;  // filter_key()s, sorted; empty: every frame
+  };
+  static std::uint32_t filter_key(std::uint32_t id, bool extended) { return id | (extended ? CAN_EFF_FLAG : 0u); }
+
+  // "<pid>\n" and, with a filter, "accept <key> <key> ...\n"; written to a temporary name and renamed,
+  // so a sender never reads half a list and the directory's mtime tells it to re-read.
+  bool write_announce(std::string* err) {
+    const std::string tmp = dir_ + "/.tmp-" + std::to_string(port_);
+    {
+      std::ofstream f(tmp, std::ios::trunc);
+      f << ::getpid() << "\n";
+      if (!filter_.empty()) {
+        f << "accept";
+        for (std::uint32_t k : filter_) f << ' ' << k;
+        f << "\n";
+      }
+      f.close();
+      if (!f) {
+        *err = "virtual bus: cannot write " + tmp;
+        ::unlink(tmp.c_str());
+        return false;
+      }
+    }
+    if (::rename(tmp.c_str(), announce_.c_str()) != 0) {
+      *err = sys_error("virtual bus: rename " + tmp + " to " + announce_);
+      ::unlink(tmp.c_str());
+      return false;
+    }
+    return true;
   }
 
   int fd_ = -1;
   std::uint16_t port_ = 0;
   std::string dir_;
   std::string announce_;
-  std::vector<sockaddr_in> peers_;
+  std::vector<std::uint32_t> filter_;
+  std::vector<Peer> peers_;
   timespec mtime_{};
   std::int64_t last_refresh_ms_ = 0;
 };
@@ -444,6 +496,7 @@ std::unique_ptr<LinuxCanPort> open_can_port(const std::string& spec, std::string
 }
 
 bool set_can_filter(LinuxCanPort& port, const std::vector<std::uint32_t>& ids, bool extended, std::string* err) {
+  if (auto* v = dynamic_cast<VirtualPort*>(&port)) return v->set_filter(ids, extended, err);
   if (dynamic_cast<SocketCanPort*>(&port) == nullptr) return true;
   std::vector<can_filter> f;
   for (std::uint32_t id : ids) {

@@ -6,7 +6,8 @@
 //   virtual:<name>       UDP datagrams on 127.0.0.1 between any number of processes; each endpoint
 //                        binds an ephemeral port and announces it as a file <port> (content: pid) in
 //                        $IMUFORGE_VCAN_DIR/<name>/ (default /tmp/imuforge-vcan/<name>/); a frame is sent
-//                        to every announced endpoint but itself. Same 16-byte frame layout as SocketCAN's
+//                        to every announced endpoint but itself whose acceptance filter (set_can_filter,
+//                        announced in the same file) takes its id. Same 16-byte frame layout as SocketCAN's
 //                        struct can_frame (can_id with the EFF flag bit 31, dlc, 3 pad, 8 data).
 //                        Unix datagram sockets were rejected: their queue is 10 datagrams by default.
 // Every system call's result is checked; failures are reported as CanError codes plus a message.
@@ -54,7 +55,9 @@ bool parse_bus_spec(const std::string& spec, BusSpec* out, std::string* err);
 // CANFD_MTU (checked with SIOCGIFMTU), otherwise the port stays classic.
 std::unique_ptr<LinuxCanPort> open_can_port(const std::string& spec, std::string* err, bool want_fd = false);
 
-// Restricts a SocketCAN raw port to the given identifiers (CAN_RAW_FILTER). No-op on the virtual bus.
+// Restricts a port to the given identifiers: CAN_RAW_FILTER on SocketCAN; on the virtual bus the list is
+// announced and the senders skip this endpoint for other ids (a hardware acceptance filter: the bus
+// still carries every frame, the endpoint no longer pays for them; an empty list: every frame again).
 bool set_can_filter(LinuxCanPort& port, const std::vector<std::uint32_t>& ids, bool extended, std::string* err);
 
 // The Linux kernel's ISO 15765-2 implementation (CAN_ISOTP socket), one (tx_id, rx_id) pair.

@@ -38,6 +38,26 @@ const char* status_name(int s) {
   }
 }
 
+namespace {
+// "0x03 (stream stop)": the byte a protocol trace shows and the word an operator reads.
+std::string command_label(std::uint8_t cmd) {
+  const char* name = "unknown";
+  switch (cmd) {
+    case proto::kCmdIdentify: name = "identify"; break;
+    case proto::kCmdStreamStart: name = "stream start"; break;
+    case proto::kCmdStreamStop: name = "stream stop"; break;
+    case proto::kCmdReadTable: name = "read table"; break;
+    case proto::kCmdWriteTable: name = "write table"; break;
+    case proto::kCmdCommit: name = "commit"; break;
+    case proto::kCmdReboot: name = "reboot"; break;
+    case proto::kCmdStatus: name = "status"; break;
+    default: break;
+  }
+  const char* hex = "0123456789abcdef";
+  return std::string("0x") + hex[cmd >> 4] + hex[cmd & 15] + " (" + name + ")";
+}
+}  // namespace
+
 // ---- transports ----------------------------------------------------------------------------------------
 class Client::Transport {
  public:
@@ -259,6 +279,11 @@ std::unique_ptr<Client> Client::connect(const std::string& bus_spec, std::uint8_
   if (bs.kind == hal::BusSpec::Kind::kVirtual) {
     auto port = hal::open_can_port(bus_spec, &err);
     if (!port) throw Error(kErrTransport, "CAN bus " + bus_spec + ": " + err);
+    // Only this node's responses and stream: with N units on one virtual bus, every client reading
+    // every node's stream is what starved the command responses (docs/eol.md "Multi-unit stations").
+    std::vector<std::uint32_t> ids{proto::response_id(node_id, opt.extended_ids)};
+    for (std::uint8_t p = 0; p < proto::kPartCount; ++p) ids.push_back(proto::stream_id(node_id, p, opt.extended_ids));
+    if (!hal::set_can_filter(*port, ids, opt.extended_ids, &err)) throw Error(kErrTransport, "CAN bus " + bus_spec + ": " + err);
     t = std::make_unique<VirtualTransport>(std::move(port), node_id, opt.extended_ids);
   } else {
     t = std::make_unique<SocketCanTransport>(bus_spec, bs.name, node_id, opt.extended_ids);
@@ -295,15 +320,13 @@ std::vector<std::uint8_t> Client::request(const std::vector<std::uint8_t>& req, 
       if (resp.size() < 2 || resp[0] != want) continue;  // stale response of an earlier attempt
       stats_.response_bytes += resp.size();
       if (resp[1] != proto::kStOk) {
-        throw Error(resp[1], std::string("node ") + std::to_string(node_) + " refused command 0x" +
-                                 "0123456789abcdef"[req[0] >> 4] + "0123456789abcdef"[req[0] & 15] + ": " +
-                                 status_name(resp[1]) + " (status " + std::to_string(resp[1]) + ")");
+        throw Error(resp[1], std::string("node ") + std::to_string(node_) + " refused command " + command_label(req[0]) +
+                                 ": " + status_name(resp[1]) + " (status " + std::to_string(resp[1]) + ")");
       }
       return std::vector<std::uint8_t>(resp.begin() + 2, resp.end());
     }
   }
-  throw Error(kErrTimeout, "node " + std::to_string(node_) + " did not answer command 0x" +
-                               std::string(1, "0123456789abcdef"[req[0] >> 4]) + "0123456789abcdef"[req[0] & 15] +
+  throw Error(kErrTimeout, "node " + std::to_string(node_) + " did not answer command " + command_label(req[0]) +
                                " after " + std::to_string(attempts) + " attempt(s): " + last);
 }
 

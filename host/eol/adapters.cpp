@@ -122,7 +122,7 @@ class CanDevice final : public Device {
     d.table_seq = id.table_seq;
     return d;
   }
-  double node_rate(double rate_hz) const { return std::clamp(std::round(rate_hz * k_), 1.0, 1000.0); }
+  double node_rate(double rate_hz) const { return std::clamp(std::round(rate_hz * k_), 1.0, kCanDeviceMaxNodeRateHz); }
   double effective_rate_hz(double rate_hz) override { return node_rate(rate_hz) / k_; }
   StreamStats stream(double rate_hz, const std::function<bool(const ImuSample&)>& cb) override {
     std::mutex mu;

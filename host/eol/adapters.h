@@ -13,6 +13,10 @@
 
 namespace imuforge::eol {
 
+// The highest node stream rate (wall Hz) CanDevice asks for: the station's rate × time_scale is clamped
+// to it, so a faster time scale samples fewer times per SIMULATED second (Device::effective_rate_hz).
+constexpr double kCanDeviceMaxNodeRateHz = 1000.0;
+
 std::unique_ptr<Bench> make_fixture_bench(const StationConfig& st);
 std::unique_ptr<Device> make_can_device(const StationConfig& st);
 std::unique_ptr<TableOps> make_table_ops();

@@ -237,8 +237,13 @@ nlohmann::json batch_to_json(const BatchOutcome& b) {
   return j;
 }
 
+// "slot03 (serial 3)", or the slot alone when the unit never told its serial (a dead node).
+static std::string unit_label(const UnitOutcome& u) {
+  return u.serial.empty() ? u.slot : u.slot + " (serial " + u.serial + ")";
+}
+
 // One parameter's strip chart: every solved unit a dot (red: outlier, hollow: failed unit), the
-// median and ±5 robust σ band.
+// median and the ±k robust σ band.
 static std::string strip(const ParameterSpread& s, const BatchOutcome& b, double k) {
   const int W = 300, H = 46, L = 8, R = 8;
   double lo = s.median - k * s.robust_sigma, hi = s.median + k * s.robust_sigma;
@@ -266,7 +271,7 @@ static std::string strip(const ParameterSpread& s, const BatchOutcome& b, double
     const double y = 12 + 14 * ((row++ % 3) / 2.0);
     o += "<circle cx='" + fmt_num(x(u.estimate.value[i]), "%.1f") + "' cy='" + fmt_num(y, "%.1f") + "' r='" + (out ? "4" : "2.5") +
          "' fill='" + (out ? "#d62728" : u.pass ? "#333" : "none") + "' stroke='" + (out ? "#d62728" : "#333") + "'><title>" +
-         html_escape(u.slot + " " + u.serial) + "</title></circle>";
+         html_escape(unit_label(u)) + "</title></circle>";
   }
   o += "<text x='" + std::to_string(L) + "' y='44' font-size='9'>" + fmt_num(lo) + "</text><text x='" + std::to_string(W - R) +
        "' y='44' font-size='9' text-anchor='end'>" + fmt_num(hi) + "</text></svg>";
@@ -289,14 +294,14 @@ std::string render_batch_report(const BatchOutcome& b, const std::string& title)
        std::to_string(n) + " units PASS</div><ul>";
   for (const auto& u : b.units)
     if (!u.pass)
-      h += "<li class='fail'><b>" + html_escape(u.slot + " " + u.serial) + "</b> FAIL: " +
+      h += "<li class='fail'><b>" + html_escape(unit_label(u)) + "</b> FAIL: " +
            html_escape(u.reasons.empty() ? "" : u.reasons[0]) +
            (u.reasons.size() > 1 ? " (+" + std::to_string(u.reasons.size() - 1) + " more)" : "") + "</li>";
   for (const auto& u : b.units)
     if (!u.outliers.empty()) {
       std::string list;
       for (const auto& p : u.outliers) list += (list.empty() ? "" : ", ") + p;
-      h += "<li class='warn'><b>" + html_escape(u.slot + " " + u.serial) + "</b> " + (u.pass ? "passes but is " : "") +
+      h += "<li class='warn'><b>" + html_escape(unit_label(u)) + "</b> " + (u.pass ? "passes but is " : "") +
            "far from its batch (> " + fmt_num(def.outlier_k, "%.0f") + " robust σ): " + html_escape(list) + "</li>";
     }
   h += "</ul><p>" + std::to_string(suspicious) + " passing unit(s) suspicious. Solved on " + std::to_string(b.threads) +
@@ -307,7 +312,9 @@ std::string render_batch_report(const BatchOutcome& b, const std::string& title)
     std::string r, o;
     for (const auto& x : u.reasons) r += (r.empty() ? "" : "<br>") + html_escape(x);
     for (const auto& x : u.outliers) o += (o.empty() ? "" : ", ") + html_escape(x);
-    h += "<tr><td>" + html_escape(u.slot) + "</td><td>" + html_escape(u.serial) + "</td><td class='" +
+    const std::string slot = u.report_href.empty() ? html_escape(u.slot)
+                                                   : "<a href='" + html_escape(u.report_href) + "'>" + html_escape(u.slot) + "</a>";
+    h += "<tr><td>" + slot + "</td><td>" + html_escape(u.serial) + "</td><td class='" +
          (u.pass ? "pass'>PASS" : "fail'>FAIL") + "</td><td>" + r + "</td><td class='warn'>" + o + "</td><td>" +
          fmt_num(u.cpu_s, "%.2f") + "</td></tr>";
   }

@@ -52,6 +52,7 @@ struct UnitOutcome {
   std::vector<records::ParameterRecord> params;  // value, honest σ, limits and pass per parameter
   std::vector<std::string> outliers;   // parameters far from the batch (suspicious even when passing)
   double cpu_s = 0.0;                  // CPU time of this unit's solve (its thread)
+  std::string report_href;             // the unit's own report, relative to the batch report ("": none)
   nlohmann::json cal;                  // the unit's cal.json
   // The unit's calibration record id. recorded = true: already in the store (the live station runner's
   // per-unit record), the batch only names it; false: record_batch inserts the unit's record under this

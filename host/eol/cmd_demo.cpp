@@ -22,7 +22,7 @@ int run_demo_cmd(int argc, char** argv) {
   app.add_option("--out", o.out_dir, "output folder (default demo-out)");
   CLI::Option* ts_opt =
       app.add_option("--time-scale", o.time_scale,
-                     "simulated seconds per wall second (default 100; with --slots, lowered to what the virtual CAN bus carries)")
+                     "simulated seconds per wall second (default 100; lowered to what the virtual CAN bus and a 1000 Hz node rate allow)")
           ->check(CLI::PositiveNumber);
   app.add_option("--rate", o.stream_rate_hz, "IMU samples per simulated second (default 10)")->check(CLI::PositiveNumber);
   app.add_option("--campaign", o.campaign, "campaign file (default docs/examples/campaign-eol.json)");
@@ -41,20 +41,8 @@ int run_demo_cmd(int argc, char** argv) {
     return app.exit(e) == 0 ? app::kExitOk : app::kExitUsage;
   }
   o.early_stop = !full;
-  // The virtual CAN bus fans every frame out to every endpoint over loopback UDP (hal/linux/linux_can.h),
-  // so what it carries is bounded in wall-clock samples, not simulated ones. 16 units × 10 Hz at 100× lost
-  // command frames and no unit could start its stream; 1600 samples per wall second (16 × 10 Hz × 10×, or
-  // 8 × 10 Hz × 20×) ran clean here. Unless the user chose a scale, keep a multi-unit demo within that.
-  constexpr double kVirtualBusSamplesPerWallS = 1600.0;
-  if (o.slots > 1 && ts_opt->count() == 0) {
-    const double fit = kVirtualBusSamplesPerWallS / (static_cast<double>(o.slots) * o.stream_rate_hz);
-    if (fit < o.time_scale) {
-      o.time_scale = fit;
-      if (!o.quiet)
-        std::fprintf(stderr, "demo: time scale %gx so %d units at %g Hz stay within the virtual bus (docs/eol.md)\n",
-                     o.time_scale, o.slots, o.stream_rate_hz);
-    }
-  }
+  // A multi-unit run lowers an unchosen scale to what the virtual bus carries (eol::demo_time_scale).
+  o.time_scale_fixed = ts_opt->count() > 0;
   try {
     return eol::run_demo(o);
   } catch (const eol::PeerError& e) {

@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -147,8 +148,20 @@ static int run_demo_station(const DemoOptions& opt, const std::string& station_p
   return r.passed == static_cast<int>(r.units.size()) ? 0 : 1;
 }
 
-int run_demo(const DemoOptions& opt) {
+double demo_time_scale(double wanted, int slots, double rate_hz, bool fixed) {
+  if (fixed || slots < 1 || !(rate_hz > 0)) return wanted;
+  return std::min({wanted, kVirtualBusSamplesPerWallS / (static_cast<double>(slots) * rate_hz),
+                   kCanDeviceMaxNodeRateHz / rate_hz});
+}
+
+int run_demo(const DemoOptions& opt_in) {
   const auto wall0 = std::chrono::steady_clock::now();
+  DemoOptions opt = opt_in;
+  opt.time_scale = demo_time_scale(opt.time_scale, opt.slots, opt.stream_rate_hz, opt.time_scale_fixed);
+  if (opt.time_scale != opt_in.time_scale && !opt.quiet)
+    std::fprintf(stderr, "demo: time scale %gx so %d units at %g Hz stay within the virtual CAN bus and the node's rate (docs/eol.md)\n",
+                 opt.time_scale, opt.slots, opt.stream_rate_hz);
+  if (opt.stats) opt.stats->time_scale = opt.time_scale;
   const std::string ex = find_examples_dir(opt.examples_dir, opt.self_exe);
   const fs::path out = fs::absolute(opt.out_dir);
   // A demo run never overwrites an earlier one: each goes to the first free run, run-2, run-3, ...

@@ -15,6 +15,9 @@ struct DemoOptions {
   std::string campaign;                     // "" = examples/campaign-eol.json
   std::string model;                        // "" = examples/model-thermal.json
   double time_scale = 100.0;                // simulated seconds per wall second
+  // false: a multi-unit run lowers time_scale to what the virtual CAN bus carries
+  // (demo_time_scale()); true: time_scale as given (the user chose it).
+  bool time_scale_fixed = false;
   double stream_rate_hz = 10.0;             // samples per SIMULATED second
   bool early_stop = true;
   bool quiet = false;
@@ -33,6 +36,7 @@ struct DemoOptions {
   struct Stats {
     int units = 0, passed = 0;
     double campaign_time_s = 0.0;  // simulated fixture seconds of the collection
+    double time_scale = 0.0;       // the one the run used (demo_time_scale())
     double collect_wall_s = 0.0, finish_wall_s = 0.0;
     bool early_stopped = false;
     std::vector<double> finish_cpu_s;  // per unit
@@ -41,6 +45,17 @@ struct DemoOptions {
 
 // Returns an exit code of host/app/command.h (0 PASS, 1 FAIL/bad input, 3 peer failure).
 int run_demo(const DemoOptions& opt);
+
+// What the virtual CAN bus (hal/linux/linux_can.h: loopback UDP, one datagram per frame and accepting
+// endpoint, all endpoints in the processes of one shared machine) carries, in samples per WALL second
+// summed over the units. Measured, not derived: docs/eol.md "Multi-unit stations", figures.
+constexpr double kVirtualBusSamplesPerWallS = 16000.0;
+
+// The time scale a run of `slots` units at `rate_hz` simulated samples per second uses: `wanted`, or
+// lower if it would stream more than kVirtualBusSamplesPerWallS, or ask a node for more than
+// kCanDeviceMaxNodeRateHz (host/eol/adapters.h: the run would silently sample fewer times per simulated
+// second), unless `fixed` (the user's choice).
+double demo_time_scale(double wanted, int slots, double rate_hz, bool fixed);
 
 // The docs/examples folder: examples_dir if set, else the source tree this binary was built from, else
 // relative to the executable (build/<preset>/bin/ -> ../../../docs/examples). Throws if none exists.

@@ -750,6 +750,8 @@ StationRunResult StationRunner::run() {
       o.record_id = u.run.record_id;
       o.recorded = !u.run.record_id.empty();
       u.result.report_path = u.run.report_path;
+      if (!u.run.report_path.empty())
+        o.report_href = fs::relative(u.run.report_path, out).generic_string();
       u.result.collected = true;
     } else {
       o.reasons = {u.failure.empty() ? "not finished" : u.failure};

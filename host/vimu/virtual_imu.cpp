@@ -115,6 +115,9 @@ void VirtualImu::start() {
   std::string err;
   impl_->linux_port = hal::open_can_port(cfg_.bus, &err);
   if (!impl_->linux_port) throw std::runtime_error("vimu: cannot open CAN bus '" + cfg_.bus + "': " + err);
+  // The node's hardware acceptance filter: its request id only (the other nodes' streams never reach it).
+  if (!hal::set_can_filter(*impl_->linux_port, {proto::request_id(cfg_.node_id, cfg_.extended_ids)}, cfg_.extended_ids, &err))
+    throw std::runtime_error("vimu: CAN bus '" + cfg_.bus + "': " + err);
   impl_->port = std::make_unique<Port>(*impl_->linux_port, *this);
   impl_->sensor = std::make_unique<SimSensor>(cfg_.truth);
   stop_.store(false);

@@ -13,6 +13,7 @@
 #include "firmware/table/table.h"
 #include "host/can/client.h"
 #include "host/vimu/virtual_imu.h"
+#include "hal/linux/linux_can.h"
 
 using namespace imuforge;
 using namespace std::chrono_literals;
@@ -276,6 +277,41 @@ TEST(CanHost, DeadPeerAndBadSpecsAreClearErrors) {
   EXPECT_THROW(can::Client::connect("socketcan:nonexistent0", 1), can::Error);
   EXPECT_THROW(can::Client::connect(bus_name("x"), 64), can::Error);
   EXPECT_THROW(can::key_from_hex("zz"), std::invalid_argument);
+}
+
+// The virtual bus's acceptance filter (issue 14: 16 units on one bus): a sender skips an endpoint whose
+// announced filter does not take the id, an endpoint without a filter gets every frame, and the same id
+// in 11 and 29 bits are different frames.
+TEST(CanHost, VirtualBusAcceptanceFilterIsAppliedBySenders) {
+  const std::string bus = bus_name("filter");
+  std::string err;
+  auto filtered = hal::open_can_port(bus, &err);
+  auto open_all = hal::open_can_port(bus, &err);
+  ASSERT_TRUE(filtered && open_all) << err;
+  ASSERT_TRUE(hal::set_can_filter(*filtered, {0x123, 0x124}, false, &err)) << err;
+  auto sender = hal::open_can_port(bus, &err);  // opened after the filter: reads the announced list
+  ASSERT_TRUE(sender) << err;
+  auto frame = [](std::uint32_t id, bool ext, std::uint8_t tag) {
+    hal::CanFrame f;
+    f.id = id;
+    f.extended = ext;
+    f.len = 1;
+    f.data[0] = tag;
+    return f;
+  };
+  ASSERT_EQ(sender->send(frame(0x456, false, 1)), hal::kCanOk);
+  ASSERT_EQ(sender->send(frame(0x123, true, 2)), hal::kCanOk);
+  ASSERT_EQ(sender->send(frame(0x124, false, 3)), hal::kCanOk);
+  // Loopback datagrams are queued when sendto returns; the long wait only covers a descheduled
+  // receiver, the short one looks for frames that should not be there.
+  auto drain = [](hal::LinuxCanPort& p, std::size_t expected) {
+    std::vector<int> tags;
+    hal::CanFrame f;
+    while (p.receive_wait(f, tags.size() < expected ? 2000 : 50) == hal::kCanOk) tags.push_back(f.data[0]);
+    return tags;
+  };
+  EXPECT_EQ(drain(*open_all, 3), (std::vector<int>{1, 2, 3}));
+  EXPECT_EQ(drain(*filtered, 1), (std::vector<int>{3}));
 }
 
 }  // namespace
