@@ -166,6 +166,23 @@ struct BlockAcc {
   long bin_n = 0;
 };
 
+// A step in the reference between rows a and b (p before a, n after b; null at the ends of the data): the
+// change between a and b exceeds the change between the neighbouring rows by more than any real table could
+// add in one row interval (0.5 m/s², 0.2 rad/s). The test is on the second difference, not on the change
+// alone: a step into or out of a motion (a tumble or a sine starting from rest, the reference moving on one
+// side) is still a step, while a fast smooth motion whose rows are far apart at a low log rate (gravity
+// turning 0.5 m/s² per row at 300 °/s and 100 Hz) is not, and is interpolated.
+template <class R>
+bool reference_step(const R* p, const R& a, const R& b, const R* n) {
+  auto excess = [](double d, double dp, double dn) { return std::fabs(d) - std::max(std::fabs(dp), std::fabs(dn)); };
+  for (int k = 0; k < 3; ++k) {
+    const double fp = p ? a.f[k] - p->f[k] : 0.0, fn = n ? n->f[k] - b.f[k] : 0.0;
+    const double wp = p ? a.w[k] - p->w[k] : 0.0, wn = n ? n->w[k] - b.w[k] : 0.0;
+    if (excess(b.f[k] - a.f[k], fp, fn) > 0.5 || excess(b.w[k] - a.w[k], wp, wn) > 0.2) return true;
+  }
+  return false;
+}
+
 // Re-evaluation of the reference at a shifted time (docs/diagnosis.md § timing): a sensor whose output at t
 // reads its input at t − δ(t), δ = latency + ppm·1e-6·(t − t_first), is compared with the reference
 // interpolated at t − δ(t), not with a first-order correction, so an accumulated clock error of a second
@@ -239,7 +256,7 @@ class ShiftedReference {
       if (b->t_s - a->t_s > gap_) {  // a gap in the reference: take the nearer side, never bridge it
         if (tq - a->t_s < b->t_s - tq) b = a;
         else a = b;
-      } else if (jump(*a, *b)) {
+      } else if (step_at(it - 1)) {
         b = a;  // an instantaneous pose change: the input holds until the sample that shows the new pose
       }
     }
@@ -249,36 +266,27 @@ class ShiftedReference {
       w[k] = a->w[k] + u * (b->w[k] - a->w[k]);
     }
   }
-  // Larger than any motion between two samples of a real table (0.5 m/s², 0.2 rad/s): a step in the reference.
-  static bool jump(const Ref& a, const Ref& b) {
-    for (int k = 0; k < 3; ++k)
-      if (std::fabs(b.f[k] - a.f[k]) > 0.5 || std::fabs(b.w[k] - a.w[k]) > 0.2) return true;
-    return false;
-  }
-  // A tenth of that: the reference holds still between two rows.
-  static bool quiet(const Ref& a, const Ref& b) {
-    for (int k = 0; k < 3; ++k)
-      if (std::fabs(b.f[k] - a.f[k]) > 0.05 || std::fabs(b.w[k] - a.w[k]) > 0.02) return false;
-    return true;
+  template <class It>
+  bool step_at(It i) const {
+    return reference_step(i == ref_.begin() ? nullptr : &*(i - 1), *i, *(i + 1), i + 2 == ref_.end() ? nullptr : &*(i + 2));
   }
 
  public:
-  // True when an isolated step of the reference (a jump between two rows, still on both sides) lies within
-  // one sample interval of tq: the output sample read there shows the old or the new pose depending on
-  // where in the row interval the change fell, which no timing model can say, and its central-difference
-  // derivative is the step over two samples, not a rate. Such samples are left out (shifted or not).
+  // True when a step of the reference (step_at: an instantaneous pose or rate change, whether or not the
+  // reference moves on either side) lies within one sample interval of tq: the output sample read there shows
+  // the old or the new pose depending on where in the row interval the change fell, which no timing model can
+  // say, and its central-difference derivative is the step over two samples, not a rate. Such samples are
+  // left out (shifted or not). A step into a motion must count too: on a blind log the rate steps into
+  // tumbles and sines, kept, read the step at a timing error of a millisecond as a segment offset of
+  // (step / samples in the segment), ~1e-2 rad/s at 300 °/s, and pulled the gyro clock estimate with it.
   bool near_step(double tq) const {
     if (ref_.size() < 2) return false;
     const double eps = 1e-6 * h_;
     auto it = std::lower_bound(ref_.begin(), ref_.end(), tq - h_ - eps, [](const Ref& r, double t) { return r.t_s < t; });
     if (it != ref_.begin()) --it;
     for (; it + 1 != ref_.end() && it->t_s < tq + h_ - eps; ++it) {
-      const Ref& a = *it;
       const Ref& b = *(it + 1);
-      if (!(b.t_s > tq - h_ + eps) || !jump(a, b)) continue;
-      const bool still_before = it == ref_.begin() || quiet(*(it - 1), a);
-      const bool still_after = it + 2 == ref_.end() || quiet(b, *(it + 2));
-      if (still_before && still_after) return true;
+      if (b.t_s > tq - h_ + eps && step_at(it)) return true;
     }
     return false;
   }
@@ -290,6 +298,112 @@ class ShiftedReference {
   std::deque<Ref> ref_;
   bool eof_ = false;
 };
+
+// Lag probe at instantaneous steps of the reference (docs/diagnosis.md § timing). Once a clock error has
+// accumulated to more than a sample interval, the first samples after a step read the old pose, and a
+// linearised timing term cannot see it: the derivative is zero on both sides of a step and the samples next
+// to it are left out. Each large step is then a direct observation of the lag: the number n of output
+// samples after it that still show the old input (or before it that already show the new one) brackets the
+// lag to one sample interval h, δ ∈ ((n−1)h, nh] under the convention of ShiftedReference (the step falls at
+// the row that shows the new pose). A line latency + ppm·t through these brackets is a starting point for
+// the re-evaluation, which then refines it on the motion (sines) with the linear term; the ±h exclusion
+// around each shifted step absorbs what is left of the bracket.
+struct StepLag {
+  bool valid = false;
+  double latency_s = 0, ppm = 0, max_abs_s = 0, rms_s = 0;
+  int n_steps = 0;
+};
+
+std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double duration_s) {
+  std::array<StepLag, 2> out;
+  if (!(fs > 0)) return out;
+  const double h = 1.0 / fs;
+  // Lags up to 1.5 s (a 420 ppm clock over 1 h); steps closer than that to another step are skipped.
+  const int W = static_cast<int>(std::min(std::ceil(1.5 * fs), 20000.0));
+  // A step must stand clear of the uncalibrated output's bias, scale and misalignment errors by a wide
+  // margin for a sample to be called old or new: 2 m/s², 0.3 rad/s on the axis that changes most.
+  const double thr[2] = {2.0, 0.3};
+  std::vector<double> ts[2], lag[2];
+  std::deque<Sample> q;
+  double t_first = 0;
+  bool first = true;
+  auto examine = [&]() {
+    const int c = W + 1;  // the pair (c, c+1)
+    const Sample& a = q[static_cast<std::size_t>(c)];
+    const Sample& b = q[static_cast<std::size_t>(c + 1)];
+    if (!reference_step(&q[static_cast<std::size_t>(c - 1)], a, b, &q[static_cast<std::size_t>(c + 2)])) return;
+    for (int s = 0; s < 2; ++s) {
+      auto u = [&](const Sample& x, int k) { return s == 0 ? x.f[k] : x.w[k]; };
+      int k = 0;
+      for (int j = 1; j < 3; ++j)
+        if (std::fabs(u(b, j) - u(a, j)) > std::fabs(u(b, k) - u(a, k))) k = j;
+      const double du = u(b, k) - u(a, k);
+      if (std::fabs(du) < thr[s]) continue;
+      const double sg = du > 0 ? 1.0 : -1.0;
+      // Old after the step: the output is nearer the held old input than the reference of its own row.
+      int n_old = 0;
+      bool ok = true;
+      for (int j = c + 1; j < static_cast<int>(q.size()); ++j) {
+        const Sample& x = q[static_cast<std::size_t>(j)];
+        if (std::fabs(u(x, k) - u(b, k)) > 0.25 * std::fabs(du)) { ok = false; break; }  // the input moves on
+        if (sg * (x.y[3 * s + k] - 0.5 * (u(a, k) + u(x, k))) < 0) ++n_old;
+        else break;
+      }
+      int n_new = 0;
+      for (int j = c; ok && j >= 0; --j) {
+        const Sample& x = q[static_cast<std::size_t>(j)];
+        if (std::fabs(u(x, k) - u(a, k)) > 0.25 * std::fabs(du)) { ok = false; break; }
+        if (sg * (x.y[3 * s + k] - 0.5 * (u(x, k) + u(b, k))) > 0) ++n_new;
+        else break;
+      }
+      if (!ok || n_old >= W || n_new >= W || (n_old > 0 && n_new > 0)) continue;
+      ts[s].push_back(b.t_s - t_first);
+      lag[s].push_back(n_old > 0 ? (n_old - 0.5) * h : -(n_new + 0.5) * h);
+    }
+  };
+  src.rewind();
+  Sample x;
+  while (src.next(x)) {
+    if (first) { t_first = x.t_s; first = false; }
+    if (!x.has_ref || (!q.empty() && x.t_s - q.back().t_s > 5.0 / fs)) {
+      q.clear();
+      if (!x.has_ref) continue;
+    }
+    q.push_back(x);
+    if (static_cast<int>(q.size()) == 2 * W + 4) {
+      examine();
+      q.pop_front();
+    }
+  }
+  for (int s = 0; s < 2; ++s) {
+    const std::size_t n = ts[s].size();
+    StepLag& r = out[static_cast<std::size_t>(s)];
+    r.n_steps = static_cast<int>(n);
+    if (n < 6) continue;
+    // Least squares lag = latency + ppm·1e-6·t.
+    double S = 0, St = 0, Stt = 0, Sy = 0, Sty = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double t = ts[s][i], y = lag[s][i];
+      S += 1; St += t; Stt += t * t; Sy += y; Sty += t * y;
+    }
+    const double det = S * Stt - St * St;
+    if (!(det > 0)) continue;
+    const double slope = (S * Sty - St * Sy) / det;
+    r.latency_s = (Sy - slope * St) / S;
+    r.ppm = slope * 1e6;
+    double ss = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double e = lag[s][i] - (r.latency_s + slope * ts[s][i]);
+      ss += e * e;
+    }
+    r.rms_s = std::sqrt(ss / static_cast<double>(n));
+    r.max_abs_s = std::max(std::fabs(r.latency_s), std::fabs(r.latency_s + slope * duration_s));
+    // A consistent line (brackets scatter ±h/2 about it) that reaches a whole sample somewhere: beyond what
+    // the linear term and the ±h exclusion handle from the logged time.
+    r.valid = r.rms_s <= h && r.max_abs_s >= h;
+  }
+  return out;
+}
 
 struct Pass1 {
   std::vector<Block> blocks;
@@ -1596,7 +1710,36 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   DiagnosisResult first = diagnose_core(src, base, opt, shift);
   DiagnosisResult R = first;
   Options o = opt;
-  for (int it = 1; it <= opt.max_timing_iterations; ++it) {
+  // A lag of a sample or more, read off the steps of the reference, seeds the re-evaluation (the linearised
+  // first pass cannot see it there): that sensor's timing is then in the model, refined below.
+  int it0 = 1;
+  std::vector<std::string> probe_notes;
+  if (opt.max_timing_iterations > 0) {
+    const auto lag = probe_step_lag(src, first.sample_rate_hz, first.duration_s);
+    bool seeded = false;
+    for (int si = 0; si < 2; ++si) {
+      const StepLag& L = lag[static_cast<std::size_t>(si)];
+      if (!L.valid) continue;
+      shift[si].latency_s = std::clamp(L.latency_s, -1.0, 1.0);
+      shift[si].ppm = std::clamp(L.ppm, -1000.0, 1000.0);
+      seeded = true;
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "%s: the output lags the reference steps by up to %.3g s (%d steps: latency %.3g s, %.3g ppm): "
+                    "reference re-evaluated at that shift",
+                    model::sensor_name(static_cast<Sensor>(si)), L.max_abs_s, L.n_steps, L.latency_s, L.ppm);
+      probe_notes.push_back(buf);
+    }
+    if (seeded) {
+      o.forced.clear();
+      for (int si = 0; si < 2; ++si)
+        if (shift[si].active()) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
+      R = diagnose_core(src, base, o, shift);
+      R.timing_iterations = 1;
+      it0 = 2;
+    }
+  }
+  for (int it = it0; it <= opt.max_timing_iterations; ++it) {
     // Per sensor: the timing correction of the selected model (inverse-variance over the axes).
     bool any = false, moved = false;
     TimeShift next[2] = {shift[0], shift[1]};
@@ -1627,6 +1770,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     R.timing_iterations = it;
     if (!moved) break;
   }
+  R.warnings.insert(R.warnings.end(), probe_notes.begin(), probe_notes.end());
   // The "before" picture is the base model against the reference as logged.
   if (R.timing_iterations > 0) {
     R.gap_before = first.gap_before;
