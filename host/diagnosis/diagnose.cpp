@@ -308,10 +308,16 @@ class ShiftedReference {
 // the row that shows the new pose). A line latency + ppm·t through these brackets is a starting point for
 // the re-evaluation, which then refines it on the motion (sines) with the linear term; the ±h exclusion
 // around each shifted step absorbs what is left of the bracket.
+// Below a sample interval the probe still tells the sign: with no lag, the output sample stamped at the row
+// that first shows the new pose reads the new pose whatever the step's place in the row interval (and the
+// one before reads the old), so a step read late (n_old ≥ 1) or early (n_new ≥ 1) is a direct observation
+// of a lag. A full-step misreading cannot come from noise (the thresholds below), so a tenth of the steps
+// read late, at least 6, and none read early, is decisive (`sign`), where the sines alone may leave a latency
+// of a fraction of a sample below significance.
 struct StepLag {
   bool valid = false;
   double latency_s = 0, ppm = 0, max_abs_s = 0, rms_s = 0;
-  int n_steps = 0;
+  int n_steps = 0, n_late = 0, n_early = 0, sign = 0;
 };
 
 std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double duration_s) {
@@ -359,6 +365,8 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
       if (!ok || n_old >= W || n_new >= W || (n_old > 0 && n_new > 0)) continue;
       ts[s].push_back(b.t_s - t_first);
       lag[s].push_back(n_old > 0 ? (n_old - 0.5) * h : -(n_new + 0.5) * h);
+      if (n_old > 0) ++out[static_cast<std::size_t>(s)].n_late;
+      if (n_new > 0) ++out[static_cast<std::size_t>(s)].n_early;
     }
   };
   src.rewind();
@@ -379,6 +387,8 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
     const std::size_t n = ts[s].size();
     StepLag& r = out[static_cast<std::size_t>(s)];
     r.n_steps = static_cast<int>(n);
+    auto decisive = [&](int k, int other) { return k >= 6 && 10 * k >= static_cast<int>(n) && other == 0; };
+    r.sign = decisive(r.n_late, r.n_early) ? 1 : decisive(r.n_early, r.n_late) ? -1 : 0;
     if (n < 6) continue;
     // Least squares lag = latency + ppm·1e-6·t.
     double S = 0, St = 0, Stt = 0, Sy = 0, Sty = 0;
@@ -1714,11 +1724,26 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   // first pass cannot see it there): that sensor's timing is then in the model, refined below.
   int it0 = 1;
   std::vector<std::string> probe_notes;
+  bool force_linear[2] = {false, false};
   if (opt.max_timing_iterations > 0) {
     const auto lag = probe_step_lag(src, first.sample_rate_hz, first.duration_s);
     bool seeded = false;
     for (int si = 0; si < 2; ++si) {
       const StepLag& L = lag[static_cast<std::size_t>(si)];
+      if (!L.valid && L.sign != 0) {
+        bool have = false;
+        for (const auto& st : first.selected)
+          have = have || (st.sensor == model::sensor_name(static_cast<Sensor>(si)) && st.effect == "timing");
+        if (!have) {
+          force_linear[si] = true;
+          char buf[256];
+          std::snprintf(buf, sizeof buf,
+                        "%s: the output reads %d of %d reference steps %s (a lag below one sample): timing kept in the model",
+                        model::sensor_name(static_cast<Sensor>(si)), L.sign > 0 ? L.n_late : L.n_early, L.n_steps,
+                        L.sign > 0 ? "late" : "early");
+          probe_notes.push_back(buf);
+        }
+      }
       if (!L.valid) continue;
       shift[si].latency_s = std::clamp(L.latency_s, -1.0, 1.0);
       shift[si].ppm = std::clamp(L.ppm, -1000.0, 1000.0);
@@ -1730,13 +1755,13 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
                     model::sensor_name(static_cast<Sensor>(si)), L.max_abs_s, L.n_steps, L.latency_s, L.ppm);
       probe_notes.push_back(buf);
     }
-    if (seeded) {
+    if (seeded || force_linear[0] || force_linear[1]) {
       o.forced.clear();
       for (int si = 0; si < 2; ++si)
-        if (shift[si].active()) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
+        if (shift[si].active() || force_linear[si]) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
       R = diagnose_core(src, base, o, shift);
-      R.timing_iterations = 1;
-      it0 = 2;
+      R.timing_iterations = seeded ? 1 : 0;
+      it0 = seeded ? 2 : 1;
     }
   }
   for (int it = it0; it <= opt.max_timing_iterations; ++it) {
@@ -1765,14 +1790,14 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     shift[1] = next[1];
     o.forced.clear();
     for (int si = 0; si < 2; ++si)
-      if (shift[si].active()) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
+      if (shift[si].active() || force_linear[si]) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
     R = diagnose_core(src, base, o, shift);
     R.timing_iterations = it;
     if (!moved) break;
   }
   R.warnings.insert(R.warnings.end(), probe_notes.begin(), probe_notes.end());
   // The "before" picture is the base model against the reference as logged.
-  if (R.timing_iterations > 0) {
+  if (R.timing_iterations > 0 || force_linear[0] || force_linear[1]) {
     R.gap_before = first.gap_before;
     R.cells = first.cells;
     for (auto& st : R.selected)
