@@ -1475,6 +1475,14 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         else
           explains = explains || c0 > o.unexplained_chi2_dof || shrink >= 1.0;
       }
+      if (std::getenv("IMUFORGE_DIAG_TRACE")) {
+        std::fprintf(stderr, "withdraw? %s.%s explains=%d", model::sensor_name(static_cast<Sensor>(ef.first)),
+                     model::effect_info(static_cast<Effect>(ef.second)).name, explains ? 1 : 0);
+        for (int a = 3 * si; a < 3 * si + 3; ++a)
+          std::fprintf(stderr, " %s %.3g->%.3g", axis_name(a), g0.chi2_dof[static_cast<std::size_t>(a)],
+                       R.gap_after.chi2_dof[static_cast<std::size_t>(a)]);
+        std::fprintf(stderr, "\n");
+      }
       if (!explains) drop.push_back(ef);
     }
     for (const auto& ef : drop) {
