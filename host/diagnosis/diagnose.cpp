@@ -168,17 +168,23 @@ struct BlockAcc {
 
 // A step in the reference between rows a and b (p before a, n after b; null at the ends of the data): the
 // change between a and b exceeds the change between the neighbouring rows by more than any real table could
-// add in one row interval (0.5 m/s², 0.2 rad/s). The test is on the second difference, not on the change
-// alone: a step into or out of a motion (a tumble or a sine starting from rest, the reference moving on one
-// side) is still a step, while a fast smooth motion whose rows are far apart at a low log rate (gravity
-// turning 0.5 m/s² per row at 300 °/s and 100 Hz) is not, and is interpolated.
+// add in one row interval (0.5 m/s², 0.2 rad/s), or it is a tenth of that and ten times the neighbouring
+// changes (a smooth motion changes by about as much from one row to the next: ratio ≈ 1, while a
+// discontinuity stands alone; a 0.1 rad/s rate step read a few samples late by a drifting clock is an offset of
+// ~1e-3 rad/s on a 4 s segment). The test is on the second difference, not on the change alone: a step into
+// or out of a motion (a tumble or a sine starting from rest, the reference moving on one side) is still a step,
+// while a fast smooth motion whose rows are far apart at a low log rate (gravity turning 0.5 m/s² per row at
+// 300 °/s and 100 Hz) is not, and is interpolated.
 template <class R>
 bool reference_step(const R* p, const R& a, const R& b, const R* n) {
-  auto excess = [](double d, double dp, double dn) { return std::fabs(d) - std::max(std::fabs(dp), std::fabs(dn)); };
+  auto is_step = [](double d, double dp, double dn, double thr) {
+    const double m = std::max(std::fabs(dp), std::fabs(dn));
+    return std::fabs(d) - m > thr || (std::fabs(d) > 0.1 * thr && std::fabs(d) > 10.0 * m);
+  };
   for (int k = 0; k < 3; ++k) {
     const double fp = p ? a.f[k] - p->f[k] : 0.0, fn = n ? n->f[k] - b.f[k] : 0.0;
     const double wp = p ? a.w[k] - p->w[k] : 0.0, wn = n ? n->w[k] - b.w[k] : 0.0;
-    if (excess(b.f[k] - a.f[k], fp, fn) > 0.5 || excess(b.w[k] - a.w[k], wp, wn) > 0.2) return true;
+    if (is_step(b.f[k] - a.f[k], fp, fn, 0.5) || is_step(b.w[k] - a.w[k], wp, wn, 0.2)) return true;
   }
   return false;
 }
@@ -1758,9 +1764,11 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       seeded = true;
       char buf[256];
       std::snprintf(buf, sizeof buf,
-                    "%s: the output lags the reference steps by up to %.3g s (%d steps: latency %.3g s, %.3g ppm): "
+                    "%s: the output reads the reference steps up to %.3g s %s (%d steps: latency %.3g s, %.3g ppm): "
                     "reference re-evaluated at that shift",
-                    model::sensor_name(static_cast<Sensor>(si)), L.max_abs_s, L.n_steps, L.latency_s, L.ppm);
+                    model::sensor_name(static_cast<Sensor>(si)), L.max_abs_s,
+                    L.latency_s + L.ppm * 1e-6 * first.duration_s * 0.5 >= 0 ? "late" : "early", L.n_steps, L.latency_s,
+                    L.ppm);
       probe_notes.push_back(buf);
     }
     if (seeded || force_linear[0] || force_linear[1]) {
