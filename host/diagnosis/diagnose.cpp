@@ -1,11 +1,13 @@
 // The diagnosis pipeline (docs/diagnosis.md): pass 0 (noise, reference), pass 1 (block means at the
 // possibly shifted time), the whitened per-axis design, folds, forward–backward selection, the
-// unexplained verdict, the final joint fit, cells and plot data. One piece, ~1,650 lines, because every
+// unexplained verdict, the final joint fit, cells and plot data. One piece, ~1,700 lines, because every
 // stage reads the same per-axis design and fold statistics (AxisData) and the time-shift iteration
 // re-runs the whole chain; splitting it would pass that state through a dozen signatures. The fits and
 // held-out scores themselves live in host/estimator (shared with the solver); the noise model in
-// noise_model.*, the Allan and signature statistics in stats.*.
+// noise_model.*, the Allan and signature statistics in stats.*, the reference-step test and lag probe in
+// step_lag.*.
 #include "host/diagnosis/diagnose.h"
+#include "host/diagnosis/step_lag.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -166,29 +168,6 @@ struct BlockAcc {
   long bin_n = 0;
 };
 
-// A step in the reference between rows a and b (p before a, n after b; null at the ends of the data): the
-// change between a and b exceeds the change between the neighbouring rows by more than any real table could
-// add in one row interval (0.5 m/s², 0.2 rad/s), or it is a tenth of that and ten times the neighbouring
-// changes (a smooth motion changes by about as much from one row to the next: ratio ≈ 1, while a
-// discontinuity stands alone; a 0.1 rad/s rate step read a few samples late by a drifting clock is an offset of
-// ~1e-3 rad/s on a 4 s segment). The test is on the second difference, not on the change alone: a step into
-// or out of a motion (a tumble or a sine starting from rest, the reference moving on one side) is still a step,
-// while a fast smooth motion whose rows are far apart at a low log rate (gravity turning 0.5 m/s² per row at
-// 300 °/s and 100 Hz) is not, and is interpolated.
-template <class R>
-bool reference_step(const R* p, const R& a, const R& b, const R* n) {
-  auto is_step = [](double d, double dp, double dn, double thr) {
-    const double m = std::max(std::fabs(dp), std::fabs(dn));
-    return std::fabs(d) - m > thr || (std::fabs(d) > 0.1 * thr && std::fabs(d) > 10.0 * m);
-  };
-  for (int k = 0; k < 3; ++k) {
-    const double fp = p ? a.f[k] - p->f[k] : 0.0, fn = n ? n->f[k] - b.f[k] : 0.0;
-    const double wp = p ? a.w[k] - p->w[k] : 0.0, wn = n ? n->w[k] - b.w[k] : 0.0;
-    if (is_step(b.f[k] - a.f[k], fp, fn, 0.5) || is_step(b.w[k] - a.w[k], wp, wn, 0.2)) return true;
-  }
-  return false;
-}
-
 // Re-evaluation of the reference at a shifted time (docs/diagnosis.md § timing): a sensor whose output at t
 // reads its input at t − δ(t), δ = latency + ppm·1e-6·(t − t_first), is compared with the reference
 // interpolated at t − δ(t), not with a first-order correction, so an accumulated clock error of a second
@@ -304,122 +283,6 @@ class ShiftedReference {
   std::deque<Ref> ref_;
   bool eof_ = false;
 };
-
-// Lag probe at instantaneous steps of the reference (docs/diagnosis.md § timing). Once a clock error has
-// accumulated to more than a sample interval, the first samples after a step read the old pose, and a
-// linearised timing term cannot see it: the derivative is zero on both sides of a step and the samples next
-// to it are left out. Each large step is then a direct observation of the lag: the number n of output
-// samples after it that still show the old input (or before it that already show the new one) brackets the
-// lag to one sample interval h, δ ∈ ((n−1)h, nh] under the convention of ShiftedReference (the step falls at
-// the row that shows the new pose). A line latency + ppm·t through these brackets is a starting point for
-// the re-evaluation, which then refines it on the motion (sines) with the linear term; the ±h exclusion
-// around each shifted step absorbs what is left of the bracket.
-// Below a sample interval the probe still tells the sign: with no lag, the output sample stamped at the row
-// that first shows the new pose reads the new pose whatever the step's place in the row interval (and the
-// one before reads the old), so a step read late (n_old ≥ 1) or early (n_new ≥ 1) is a direct observation
-// of a lag. A full-step misreading cannot come from noise (the thresholds below), so a tenth of the steps
-// read late, at least 6, and none read early, is decisive (`sign`), where the sines alone may leave a latency
-// of a fraction of a sample below significance.
-struct StepLag {
-  bool valid = false;
-  double latency_s = 0, ppm = 0, max_abs_s = 0, rms_s = 0;
-  int n_steps = 0, n_late = 0, n_early = 0, sign = 0;
-};
-
-std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double duration_s) {
-  std::array<StepLag, 2> out;
-  if (!(fs > 0)) return out;
-  const double h = 1.0 / fs;
-  // Lags up to 1.5 s (a 420 ppm clock over 1 h); steps closer than that to another step are skipped.
-  const int W = static_cast<int>(std::min(std::ceil(1.5 * fs), 20000.0));
-  // A step must stand clear of the uncalibrated output's bias, scale and misalignment errors by a wide
-  // margin for a sample to be called old or new: 2 m/s², 0.3 rad/s on the axis that changes most.
-  const double thr[2] = {2.0, 0.3};
-  std::vector<double> ts[2], lag[2];
-  std::deque<Sample> q;
-  double t_first = 0;
-  bool first = true;
-  auto examine = [&]() {
-    const int c = W + 1;  // the pair (c, c+1)
-    const Sample& a = q[static_cast<std::size_t>(c)];
-    const Sample& b = q[static_cast<std::size_t>(c + 1)];
-    if (!reference_step(&q[static_cast<std::size_t>(c - 1)], a, b, &q[static_cast<std::size_t>(c + 2)])) return;
-    for (int s = 0; s < 2; ++s) {
-      auto u = [&](const Sample& x, int k) { return s == 0 ? x.f[k] : x.w[k]; };
-      int k = 0;
-      for (int j = 1; j < 3; ++j)
-        if (std::fabs(u(b, j) - u(a, j)) > std::fabs(u(b, k) - u(a, k))) k = j;
-      const double du = u(b, k) - u(a, k);
-      if (std::fabs(du) < thr[s]) continue;
-      const double sg = du > 0 ? 1.0 : -1.0;
-      // Old after the step: the output is nearer the held old input than the reference of its own row.
-      int n_old = 0;
-      bool ok = true;
-      for (int j = c + 1; j < static_cast<int>(q.size()); ++j) {
-        const Sample& x = q[static_cast<std::size_t>(j)];
-        if (std::fabs(u(x, k) - u(b, k)) > 0.25 * std::fabs(du)) { ok = false; break; }  // the input moves on
-        if (sg * (x.y[3 * s + k] - 0.5 * (u(a, k) + u(x, k))) < 0) ++n_old;
-        else break;
-      }
-      int n_new = 0;
-      for (int j = c; ok && j >= 0; --j) {
-        const Sample& x = q[static_cast<std::size_t>(j)];
-        if (std::fabs(u(x, k) - u(a, k)) > 0.25 * std::fabs(du)) { ok = false; break; }
-        if (sg * (x.y[3 * s + k] - 0.5 * (u(x, k) + u(b, k))) > 0) ++n_new;
-        else break;
-      }
-      if (!ok || n_old >= W || n_new >= W || (n_old > 0 && n_new > 0)) continue;
-      ts[s].push_back(b.t_s - t_first);
-      lag[s].push_back(n_old > 0 ? (n_old - 0.5) * h : -(n_new + 0.5) * h);
-      if (n_old > 0) ++out[static_cast<std::size_t>(s)].n_late;
-      if (n_new > 0) ++out[static_cast<std::size_t>(s)].n_early;
-    }
-  };
-  src.rewind();
-  Sample x;
-  while (src.next(x)) {
-    if (first) { t_first = x.t_s; first = false; }
-    if (!x.has_ref || (!q.empty() && x.t_s - q.back().t_s > 5.0 / fs)) {
-      q.clear();
-      if (!x.has_ref) continue;
-    }
-    q.push_back(x);
-    if (static_cast<int>(q.size()) == 2 * W + 4) {
-      examine();
-      q.pop_front();
-    }
-  }
-  for (int s = 0; s < 2; ++s) {
-    const std::size_t n = ts[s].size();
-    StepLag& r = out[static_cast<std::size_t>(s)];
-    r.n_steps = static_cast<int>(n);
-    auto decisive = [&](int k, int other) { return k >= 6 && 10 * k >= static_cast<int>(n) && other == 0; };
-    r.sign = decisive(r.n_late, r.n_early) ? 1 : decisive(r.n_early, r.n_late) ? -1 : 0;
-    if (n < 6) continue;
-    // Least squares lag = latency + ppm·1e-6·t.
-    double S = 0, St = 0, Stt = 0, Sy = 0, Sty = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double t = ts[s][i], y = lag[s][i];
-      S += 1; St += t; Stt += t * t; Sy += y; Sty += t * y;
-    }
-    const double det = S * Stt - St * St;
-    if (!(det > 0)) continue;
-    const double slope = (S * Sty - St * Sy) / det;
-    r.latency_s = (Sy - slope * St) / S;
-    r.ppm = slope * 1e6;
-    double ss = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double e = lag[s][i] - (r.latency_s + slope * ts[s][i]);
-      ss += e * e;
-    }
-    r.rms_s = std::sqrt(ss / static_cast<double>(n));
-    r.max_abs_s = std::max(std::fabs(r.latency_s), std::fabs(r.latency_s + slope * duration_s));
-    // A consistent line (brackets scatter ±h/2 about it) that reaches a whole sample somewhere: beyond what
-    // the linear term and the ±h exclusion handle from the logged time.
-    r.valid = r.rms_s <= h && r.max_abs_s >= h;
-  }
-  return out;
-}
 
 struct Pass1 {
   std::vector<Block> blocks;
