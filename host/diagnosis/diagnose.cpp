@@ -1,11 +1,13 @@
 // The diagnosis pipeline (docs/diagnosis.md): pass 0 (noise, reference), pass 1 (block means at the
 // possibly shifted time), the whitened per-axis design, folds, forward–backward selection, the
-// unexplained verdict, the final joint fit, cells and plot data. One piece, ~1,650 lines, because every
+// unexplained verdict, the final joint fit, cells and plot data. One piece, ~1,700 lines, because every
 // stage reads the same per-axis design and fold statistics (AxisData) and the time-shift iteration
 // re-runs the whole chain; splitting it would pass that state through a dozen signatures. The fits and
 // held-out scores themselves live in host/estimator (shared with the solver); the noise model in
-// noise_model.*, the Allan and signature statistics in stats.*.
+// noise_model.*, the Allan and signature statistics in stats.*, the reference-step test and lag probe in
+// step_lag.*.
 #include "host/diagnosis/diagnose.h"
+#include "host/diagnosis/step_lag.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -239,7 +241,7 @@ class ShiftedReference {
       if (b->t_s - a->t_s > gap_) {  // a gap in the reference: take the nearer side, never bridge it
         if (tq - a->t_s < b->t_s - tq) b = a;
         else a = b;
-      } else if (jump(*a, *b)) {
+      } else if (step_at(it - 1)) {
         b = a;  // an instantaneous pose change: the input holds until the sample that shows the new pose
       }
     }
@@ -249,36 +251,27 @@ class ShiftedReference {
       w[k] = a->w[k] + u * (b->w[k] - a->w[k]);
     }
   }
-  // Larger than any motion between two samples of a real table (0.5 m/s², 0.2 rad/s): a step in the reference.
-  static bool jump(const Ref& a, const Ref& b) {
-    for (int k = 0; k < 3; ++k)
-      if (std::fabs(b.f[k] - a.f[k]) > 0.5 || std::fabs(b.w[k] - a.w[k]) > 0.2) return true;
-    return false;
-  }
-  // A tenth of that: the reference holds still between two rows.
-  static bool quiet(const Ref& a, const Ref& b) {
-    for (int k = 0; k < 3; ++k)
-      if (std::fabs(b.f[k] - a.f[k]) > 0.05 || std::fabs(b.w[k] - a.w[k]) > 0.02) return false;
-    return true;
+  template <class It>
+  bool step_at(It i) const {
+    return reference_step(i == ref_.begin() ? nullptr : &*(i - 1), *i, *(i + 1), i + 2 == ref_.end() ? nullptr : &*(i + 2));
   }
 
  public:
-  // True when an isolated step of the reference (a jump between two rows, still on both sides) lies within
-  // one sample interval of tq: the output sample read there shows the old or the new pose depending on
-  // where in the row interval the change fell, which no timing model can say, and its central-difference
-  // derivative is the step over two samples, not a rate. Such samples are left out (shifted or not).
+  // True when a step of the reference (step_at: an instantaneous pose or rate change, whether or not the
+  // reference moves on either side) lies within one sample interval of tq: the output sample read there shows
+  // the old or the new pose depending on where in the row interval the change fell, which no timing model can
+  // say, and its central-difference derivative is the step over two samples, not a rate. Such samples are
+  // left out (shifted or not). A step into a motion must count too: on a blind log the rate steps into
+  // tumbles and sines, kept, read the step at a timing error of a millisecond as a segment offset of
+  // (step / samples in the segment), ~1e-2 rad/s at 300 °/s, and pulled the gyro clock estimate with it.
   bool near_step(double tq) const {
     if (ref_.size() < 2) return false;
     const double eps = 1e-6 * h_;
     auto it = std::lower_bound(ref_.begin(), ref_.end(), tq - h_ - eps, [](const Ref& r, double t) { return r.t_s < t; });
     if (it != ref_.begin()) --it;
     for (; it + 1 != ref_.end() && it->t_s < tq + h_ - eps; ++it) {
-      const Ref& a = *it;
       const Ref& b = *(it + 1);
-      if (!(b.t_s > tq - h_ + eps) || !jump(a, b)) continue;
-      const bool still_before = it == ref_.begin() || quiet(*(it - 1), a);
-      const bool still_after = it + 2 == ref_.end() || quiet(b, *(it + 2));
-      if (still_before && still_after) return true;
+      if (b.t_s > tq - h_ + eps && step_at(it)) return true;
     }
     return false;
   }
@@ -1351,6 +1344,14 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         else
           explains = explains || c0 > o.unexplained_chi2_dof || shrink >= 1.0;
       }
+      if (std::getenv("IMUFORGE_DIAG_TRACE")) {
+        std::fprintf(stderr, "withdraw? %s.%s explains=%d", model::sensor_name(static_cast<Sensor>(ef.first)),
+                     model::effect_info(static_cast<Effect>(ef.second)).name, explains ? 1 : 0);
+        for (int a = 3 * si; a < 3 * si + 3; ++a)
+          std::fprintf(stderr, " %s %.3g->%.3g", axis_name(a), g0.chi2_dof[static_cast<std::size_t>(a)],
+                       R.gap_after.chi2_dof[static_cast<std::size_t>(a)]);
+        std::fprintf(stderr, "\n");
+      }
       if (!explains) drop.push_back(ef);
     }
     for (const auto& ef : drop) {
@@ -1596,7 +1597,53 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   DiagnosisResult first = diagnose_core(src, base, opt, shift);
   DiagnosisResult R = first;
   Options o = opt;
-  for (int it = 1; it <= opt.max_timing_iterations; ++it) {
+  // A lag of a sample or more, read off the steps of the reference, seeds the re-evaluation (the linearised
+  // first pass cannot see it there): that sensor's timing is then in the model, refined below.
+  int it0 = 1;
+  std::vector<std::string> probe_notes;
+  bool force_linear[2] = {false, false};
+  if (opt.max_timing_iterations > 0) {
+    const auto lag = probe_step_lag(src, first.sample_rate_hz, first.duration_s);
+    bool seeded = false;
+    for (int si = 0; si < 2; ++si) {
+      const StepLag& L = lag[static_cast<std::size_t>(si)];
+      if (!L.valid && L.sign != 0) {
+        bool have = false;
+        for (const auto& st : first.selected)
+          have = have || (st.sensor == model::sensor_name(static_cast<Sensor>(si)) && st.effect == "timing");
+        if (!have) {
+          force_linear[si] = true;
+          char buf[256];
+          std::snprintf(buf, sizeof buf,
+                        "%s: the output reads %d of %d reference steps %s (a lag below one sample): timing kept in the model",
+                        model::sensor_name(static_cast<Sensor>(si)), L.sign > 0 ? L.n_late : L.n_early, L.n_steps,
+                        L.sign > 0 ? "late" : "early");
+          probe_notes.push_back(buf);
+        }
+      }
+      if (!L.valid) continue;
+      shift[si].latency_s = std::clamp(L.latency_s, -1.0, 1.0);
+      shift[si].ppm = std::clamp(L.ppm, -1000.0, 1000.0);
+      seeded = true;
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "%s: the output reads the reference steps up to %.3g s %s (%d steps: latency %.3g s, %.3g ppm): "
+                    "reference re-evaluated at that shift",
+                    model::sensor_name(static_cast<Sensor>(si)), L.max_abs_s,
+                    L.latency_s + L.ppm * 1e-6 * first.duration_s * 0.5 >= 0 ? "late" : "early", L.n_steps, L.latency_s,
+                    L.ppm);
+      probe_notes.push_back(buf);
+    }
+    if (seeded || force_linear[0] || force_linear[1]) {
+      o.forced.clear();
+      for (int si = 0; si < 2; ++si)
+        if (shift[si].active() || force_linear[si]) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
+      R = diagnose_core(src, base, o, shift);
+      R.timing_iterations = seeded ? 1 : 0;
+      it0 = seeded ? 2 : 1;
+    }
+  }
+  for (int it = it0; it <= opt.max_timing_iterations; ++it) {
     // Per sensor: the timing correction of the selected model (inverse-variance over the axes).
     bool any = false, moved = false;
     TimeShift next[2] = {shift[0], shift[1]};
@@ -1622,13 +1669,14 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     shift[1] = next[1];
     o.forced.clear();
     for (int si = 0; si < 2; ++si)
-      if (shift[si].active()) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
+      if (shift[si].active() || force_linear[si]) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
     R = diagnose_core(src, base, o, shift);
     R.timing_iterations = it;
     if (!moved) break;
   }
+  R.warnings.insert(R.warnings.end(), probe_notes.begin(), probe_notes.end());
   // The "before" picture is the base model against the reference as logged.
-  if (R.timing_iterations > 0) {
+  if (R.timing_iterations > 0 || force_linear[0] || force_linear[1]) {
     R.gap_before = first.gap_before;
     R.cells = first.cells;
     for (auto& st : R.selected)

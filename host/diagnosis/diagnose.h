@@ -88,7 +88,7 @@ struct Options {
   // On a sensor with an unexplained axis, each selected effect is judged alone (leave-one-out): on an
   // unexplained axis it must remove more than (1 − this) of the held-out χ² excess it faces, on an explained
   // axis be needed to explain it (or remove ≥ 1 χ²/dof); otherwise it is withdrawn (not an explanation).
-  double unexplained_keep_frac = 0.5;
+  double unexplained_keep_frac = 0.2;
   // Effects in the model from the start and never dropped (set internally: timing after re-evaluation).
   std::vector<std::pair<model::Sensor, model::Effect>> forced;
   double T_ref_C = 25.0;

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -205,4 +206,72 @@ TEST(DiagnosisPipeline, NominalInputPerAxis) {
   EXPECT_EQ(checked, 24) << "bias, scale and misalignment of both triads";
   // The held-out residual of the basic model is white noise: no axis keeps a gap of a wrong reference.
   for (int a = 0; a < 6; ++a) EXPECT_LT(r.gap_before.rms[static_cast<std::size_t>(a)], 10.0 * sigma[a]) << axis_name(a);
+}
+
+// Instantaneous steps into motion (a sine or a tumble starting from rest) with a clock error that grows to
+// several sample intervals: the first samples after each step read the old input, which no linearised timing
+// term describes (docs/diagnosis.md § timing, "lag probe"). Hand-made log, independent of host/sim: the output
+// is the reference function evaluated at t − δ(t), exactly. The diagnosis must find both clocks (one late,
+// one early), re-evaluate the reference there, and leave no axis above its noise.
+TEST(DiagnosisPipeline, ClockErrorOfSeveralSamplesAtInstantaneousSteps) {
+  const double fs = 100.0, seg_s = 4.0, g = 9.80665;
+  const int n_seg = 120;
+  const double lat[2] = {0.0, 1e-3}, ppm[2] = {-30.0, 50.0};  // accel early, gyro late: -14 ms, +25 ms at the end
+  const double sigma[2] = {1e-3, 5e-4};  // per sample at 100 Hz: the automotive class (ARW 0.34 °/√h ≈ 7e-4 rad/s)
+  const double faces[6][3] = {{0, 0, -g}, {0, 0, g}, {0, -g, 0}, {0, g, 0}, {-g, 0, 0}, {g, 0, 0}};
+  // Reference (f, ω) at time t: segment k = floor(t / seg_s); kinds cycle static, rate about the vertical,
+  // sine about the vertical, tumble about a horizontal axis (gravity turns in the body).
+  auto ref = [&](double t, double* f, double* w) {
+    const int k = std::clamp(static_cast<int>(std::floor(t / seg_s)), 0, n_seg - 1);
+    const double tau = t - k * seg_s;
+    const int face = (k / 4) % 6, vert = face / 2;  // the axis gravity lies along
+    const double sgn = (k / 24) % 2 ? -1.0 : 1.0, r = 0.5 + 0.5 * ((k / 4) % 3);
+    for (int j = 0; j < 3; ++j) f[j] = faces[face][j], w[j] = 0.0;
+    switch (k % 4) {
+      case 1: w[vert] = sgn * r; break;
+      case 2: w[vert] = 1.2 * std::cos(2.0 * M_PI * 0.5 * tau); break;
+      case 3: {
+        const int ax = (vert + 1) % 3, m = (vert + 2) % 3;  // rotate about ax: gravity moves from vert to m
+        const double th = sgn * r * tau;
+        w[ax] = sgn * r;
+        const double fv = faces[face][vert];
+        f[vert] = fv * std::cos(th);
+        f[m] = fv * std::sin(th);
+        break;
+      }
+      default: break;
+    }
+  };
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n01;
+  std::vector<Sample> log;
+  const int n = static_cast<int>(n_seg * seg_s * fs);
+  for (int i = 0; i < n; ++i) {
+    Sample s;
+    s.t_s = i / fs;
+    s.segment = static_cast<int>(std::floor(s.t_s / seg_s));
+    s.temp_C = 25.0;
+    s.has_ref = true;
+    ref(s.t_s, s.f, s.w);
+    for (int si = 0; si < 2; ++si) {
+      double f[3], w[3];
+      ref(s.t_s - lat[si] - ppm[si] * 1e-6 * s.t_s, f, w);
+      for (int j = 0; j < 3; ++j) s.y[3 * si + j] = (si == 0 ? f[j] : w[j]) + sigma[si] * n01(rng);
+    }
+    log.push_back(s);
+  }
+  VectorSource src(log);
+  DiagnosisResult r = diagnose(src, basic_model(), Options{});
+  const double t_end = n / fs;
+  for (int si = 0; si < 2; ++si) {
+    const auto i = static_cast<std::size_t>(si);
+    // Within a fifth of a sample at both ends (the ±1-sample exclusion at each shifted step needs < 1).
+    EXPECT_NEAR(r.timing_shift_latency_s[i], lat[si], 2e-3) << si;
+    EXPECT_NEAR(r.timing_shift_latency_s[i] + r.timing_shift_ppm[i] * 1e-6 * t_end, lat[si] + ppm[si] * 1e-6 * t_end, 2e-3)
+        << si;
+  }
+  bool said = false;
+  for (const auto& w : r.warnings) said = said || w.find("reads the reference steps") != std::string::npos;
+  EXPECT_TRUE(said);
+  for (int a = 0; a < 6; ++a) EXPECT_LT(r.gap_after.chi2_dof[static_cast<std::size_t>(a)], 3.0) << axis_name(a);
 }

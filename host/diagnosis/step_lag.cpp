@@ -1,0 +1,104 @@
+// Lag probe at the reference steps (step_lag.h says what; docs/diagnosis.md § timing says why).
+#include "host/diagnosis/step_lag.h"
+
+#include <deque>
+#include <vector>
+
+namespace imuforge::diagnosis {
+
+std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double duration_s) {
+  std::array<StepLag, 2> out;
+  if (!(fs > 0)) return out;
+  const double h = 1.0 / fs;
+  // Lags up to 1.5 s (a 420 ppm clock over 1 h); steps closer than that to another step are skipped.
+  const int W = static_cast<int>(std::min(std::ceil(1.5 * fs), 20000.0));
+  // A step must stand clear of the uncalibrated output's bias, scale and misalignment errors by a wide
+  // margin for a sample to be called old or new: 2 m/s², 0.3 rad/s on the axis that changes most.
+  const double thr[2] = {2.0, 0.3};
+  std::vector<double> ts[2], lag[2];
+  std::deque<Sample> q;
+  double t_first = 0;
+  bool first = true;
+  auto examine = [&]() {
+    const int c = W + 1;  // the pair (c, c+1)
+    const Sample& a = q[static_cast<std::size_t>(c)];
+    const Sample& b = q[static_cast<std::size_t>(c + 1)];
+    if (!reference_step(&q[static_cast<std::size_t>(c - 1)], a, b, &q[static_cast<std::size_t>(c + 2)])) return;
+    for (int s = 0; s < 2; ++s) {
+      auto u = [&](const Sample& x, int k) { return s == 0 ? x.f[k] : x.w[k]; };
+      int k = 0;
+      for (int j = 1; j < 3; ++j)
+        if (std::fabs(u(b, j) - u(a, j)) > std::fabs(u(b, k) - u(a, k))) k = j;
+      const double du = u(b, k) - u(a, k);
+      if (std::fabs(du) < thr[s]) continue;
+      const double sg = du > 0 ? 1.0 : -1.0;
+      // Old after the step: the output is nearer the held old input than the reference of its own row.
+      int n_old = 0;
+      bool ok = true;
+      for (int j = c + 1; j < static_cast<int>(q.size()); ++j) {
+        const Sample& x = q[static_cast<std::size_t>(j)];
+        if (std::fabs(u(x, k) - u(b, k)) > 0.25 * std::fabs(du)) { ok = false; break; }  // the input moves on
+        if (sg * (x.y[3 * s + k] - 0.5 * (u(a, k) + u(x, k))) < 0) ++n_old;
+        else break;
+      }
+      int n_new = 0;
+      for (int j = c; ok && j >= 0; --j) {
+        const Sample& x = q[static_cast<std::size_t>(j)];
+        if (std::fabs(u(x, k) - u(a, k)) > 0.25 * std::fabs(du)) { ok = false; break; }
+        if (sg * (x.y[3 * s + k] - 0.5 * (u(x, k) + u(b, k))) > 0) ++n_new;
+        else break;
+      }
+      if (!ok || n_old >= W || n_new >= W || (n_old > 0 && n_new > 0)) continue;
+      ts[s].push_back(b.t_s - t_first);
+      lag[s].push_back(n_old > 0 ? (n_old - 0.5) * h : -(n_new + 0.5) * h);
+      if (n_old > 0) ++out[static_cast<std::size_t>(s)].n_late;
+      if (n_new > 0) ++out[static_cast<std::size_t>(s)].n_early;
+    }
+  };
+  src.rewind();
+  Sample x;
+  while (src.next(x)) {
+    if (first) { t_first = x.t_s; first = false; }
+    if (!x.has_ref || (!q.empty() && x.t_s - q.back().t_s > 5.0 / fs)) {
+      q.clear();
+      if (!x.has_ref) continue;
+    }
+    q.push_back(x);
+    if (static_cast<int>(q.size()) == 2 * W + 4) {
+      examine();
+      q.pop_front();
+    }
+  }
+  for (int s = 0; s < 2; ++s) {
+    const std::size_t n = ts[s].size();
+    StepLag& r = out[static_cast<std::size_t>(s)];
+    r.n_steps = static_cast<int>(n);
+    auto decisive = [&](int k, int other) { return k >= 6 && 10 * k >= static_cast<int>(n) && other == 0; };
+    r.sign = decisive(r.n_late, r.n_early) ? 1 : decisive(r.n_early, r.n_late) ? -1 : 0;
+    if (n < 6) continue;
+    // Least squares lag = latency + ppm·1e-6·t.
+    double S = 0, St = 0, Stt = 0, Sy = 0, Sty = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double t = ts[s][i], y = lag[s][i];
+      S += 1; St += t; Stt += t * t; Sy += y; Sty += t * y;
+    }
+    const double det = S * Stt - St * St;
+    if (!(det > 0)) continue;
+    const double slope = (S * Sty - St * Sy) / det;
+    r.latency_s = (Sy - slope * St) / S;
+    r.ppm = slope * 1e6;
+    double ss = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double e = lag[s][i] - (r.latency_s + slope * ts[s][i]);
+      ss += e * e;
+    }
+    r.rms_s = std::sqrt(ss / static_cast<double>(n));
+    r.max_abs_s = std::max(std::fabs(r.latency_s), std::fabs(r.latency_s + slope * duration_s));
+    // A consistent line (brackets scatter ±h/2 about it) that reaches a whole sample somewhere: beyond what
+    // the linear term and the ±h exclusion handle from the logged time.
+    r.valid = r.rms_s <= h && r.max_abs_s >= h;
+  }
+  return out;
+}
+
+}  // namespace imuforge::diagnosis

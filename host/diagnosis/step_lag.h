@@ -1,0 +1,62 @@
+// Instantaneous steps of the reference and what they say about a sensor's timing (docs/diagnosis.md
+// § timing, "Steps" and "Lag probe at steps"): the step criterion shared by the reference re-evaluation
+// (diagnose.cpp, ShiftedReference) and the probe, and the probe itself.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "host/diagnosis/diagnose.h"
+
+namespace imuforge::diagnosis {
+
+// A step in the reference between rows a and b (p before a, n after b; null at the ends of the data): the
+// change between a and b exceeds the change between the neighbouring rows by more than any real table could
+// add in one row interval (0.5 m/s², 0.2 rad/s), or it is a tenth of that and ten times the neighbouring
+// changes (a smooth motion changes by about as much from one row to the next: ratio ≈ 1, while a
+// discontinuity stands alone; a 0.1 rad/s rate step read a few samples late by a drifting clock is an offset of
+// ~1e-3 rad/s on a 4 s segment). The test is on the second difference, not on the change alone: a step into
+// or out of a motion (a tumble or a sine starting from rest, the reference moving on one side) is still a step,
+// while a fast smooth motion whose rows are far apart at a low log rate (gravity turning 0.5 m/s² per row at
+// 300 °/s and 100 Hz) is not, and is interpolated.
+template <class R>
+bool reference_step(const R* p, const R& a, const R& b, const R* n) {
+  auto is_step = [](double d, double dp, double dn, double thr) {
+    const double m = std::max(std::fabs(dp), std::fabs(dn));
+    return std::fabs(d) - m > thr || (std::fabs(d) > 0.1 * thr && std::fabs(d) > 10.0 * m);
+  };
+  for (int k = 0; k < 3; ++k) {
+    const double fp = p ? a.f[k] - p->f[k] : 0.0, fn = n ? n->f[k] - b.f[k] : 0.0;
+    const double wp = p ? a.w[k] - p->w[k] : 0.0, wn = n ? n->w[k] - b.w[k] : 0.0;
+    if (is_step(b.f[k] - a.f[k], fp, fn, 0.5) || is_step(b.w[k] - a.w[k], wp, wn, 0.2)) return true;
+  }
+  return false;
+}
+
+// Lag probe at instantaneous steps of the reference (docs/diagnosis.md § timing). Once a clock error has
+// accumulated to more than a sample interval, the first samples after a step read the old pose, and a
+// linearised timing term cannot see it: the derivative is zero on both sides of a step and the samples next
+// to it are left out. Each large step is then a direct observation of the lag: the number n of output
+// samples after it that still show the old input (or before it that already show the new one) brackets the
+// lag to one sample interval h, δ ∈ ((n−1)h, nh] under the convention of ShiftedReference (the step falls at
+// the row that shows the new pose). A line latency + ppm·t through these brackets is a starting point for
+// the re-evaluation, which then refines it on the motion (sines) with the linear term; the ±h exclusion
+// around each shifted step absorbs what is left of the bracket.
+// Below a sample interval the probe still tells the sign: with no lag, the output sample stamped at the row
+// that first shows the new pose reads the new pose whatever the step's place in the row interval (and the
+// one before reads the old), so a step read late (n_old ≥ 1) or early (n_new ≥ 1) is a direct observation
+// of a lag. A full-step misreading cannot come from noise (the thresholds below), so a tenth of the steps
+// read late, at least 6, and none read early, is decisive (`sign`), where the sines alone may leave a latency
+// of a fraction of a sample below significance.
+struct StepLag {
+  bool valid = false;
+  double latency_s = 0, ppm = 0, max_abs_s = 0, rms_s = 0;
+  int n_steps = 0, n_late = 0, n_early = 0, sign = 0;
+};
+
+// Reads every step of the log (one streaming pass, memory bounded by the 1.5 s window), per sensor
+// {0: accel, 1: gyro}. fs: sample rate; duration_s: log duration (for the largest shift the line reaches).
+std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double duration_s);
+
+}  // namespace imuforge::diagnosis
