@@ -206,6 +206,7 @@ RunResult Runner::run() {
   for (const auto& ph : plan)
     for (const auto& s : ph) step_by_key[s.key] = &s;
   TableStepEnd last_end;
+  std::map<std::string, json> turning;  // table_turning entries by step key
   ReportData rd;
   rd.names = tracker.names();
   rd.spec = sigma_spec;
@@ -234,6 +235,8 @@ RunResult Runner::run() {
       rd.sigma_t_s.push_back(e.value("t_end_s", 0.0));
       rd.sigma_hist.push_back(tracker.honest_sigma());
       ++res.segments_resumed;
+    } else if (type == "table_turning") {
+      turning[e.at("key").get<std::string>()] = e;
     } else if (type == "verify_segment") {
       verify_segments[e.at("key").get<std::string>()] = e;  // collected by StationRunner, not yet used
     } else if (type == "plateau_done") {
@@ -311,8 +314,16 @@ RunResult Runner::run() {
     }
   };
 
-  TableMotion motion(bench_, [&](const std::string& what) { return wait_table(what); });
-  if (opt_.resume) motion.on_resume([&](const std::string&) { return last_end; });
+  TableMotion motion(
+      bench_, [&](const std::string& what) { return wait_table(what); },
+      [&](const StepInfo& si, const TableReading& r) { journal->append(table_turning_entry(si, r)); });
+  if (opt_.resume)
+    motion.on_resume([&](const std::string& key) {
+      const auto t = turning.find(key);
+      const auto step = step_by_key.find(key);
+      if (t != turning.end() && step != step_by_key.end()) return table_turning_state(*step->second, t->second);
+      return last_end;
+    });
 
   // Waits, from the IMU's own temperature, until the plateau is reached and settled.
   auto settle_temperature = [&](int phase, double setpoint_C) {

@@ -132,6 +132,25 @@ TableStepEnd table_step_end(const StepInfo& step, const io::LogRow& last_row, in
   return e;
 }
 
+nlohmann::json table_turning_entry(const StepInfo& si, const TableReading& r) {
+  return {{"type", "table_turning"}, {"key", si.key}, {"angle_deg", r.angle_deg}, {"rate_dps", r.rate_dps}};
+}
+
+TableStepEnd table_turning_state(const StepInfo& si, const nlohmann::json& entry) {
+  TableStepEnd e;
+  e.rotation = true;
+  e.phase = si.phase;
+  e.start_deg = si.position_deg;
+  const auto a = entry.value("angle_deg", std::vector<double>{});
+  const auto w = entry.value("rate_dps", std::vector<double>{});
+  e.have_state = a.size() == 3 && w.size() == 3;
+  for (std::size_t i = 0; i < 3 && e.have_state; ++i) {
+    e.angle_deg[i] = a[i];
+    e.rate_dps[i] = w[i];
+  }
+  return e;
+}
+
 namespace {
 // `next` is commanded while the table still turns as `prev` left it. Not across plateaus: the settling
 // in between lasts as long as the temperature takes, so the phase it leaves is reproduced by nothing.
@@ -180,7 +199,9 @@ void TableMotion::command(const StepInfo& si) {
     if (continued && restore && prev.have_state) {
       restore_turning(bench_, prev, wait_, "restoring the rotation before " + si.label);
       ++restored_;
-    } else if (!continued || restore) {
+    } else if (continued && !restore) {
+      if (journal_) journal_(si, bench_.table());
+    } else {
       // The axes that do not turn must hold the step's start position (it decides which IMU axis the
       // rotation is about): go there first.
       bench_.command_rate({0, 0, 0});

@@ -65,6 +65,15 @@ struct TableStepEnd {
 // file written before the rows carried them): the continued rotation then starts from its start position.
 TableStepEnd table_step_end(const StepInfo& step, const io::LogRow& last_row, int table_axes);
 
+// The journal entry `table_turning` (key, angle_deg, rate_dps): the table read just before a continued
+// rotation `si` was commanded, appended before the command. The exact state a resume must recreate (the
+// previous segment's last row is that state only when no table time passes between the two: a real host
+// hashes, journals and folds in between). A journal without it (written before, or a kill between
+// segment_done and this entry) falls back on the previous segment's last row.
+nlohmann::json table_turning_entry(const StepInfo& si, const TableReading& r);
+// The state a `table_turning` entry of step `si` holds, as the end of the step it continued.
+TableStepEnd table_turning_state(const StepInfo& si, const nlohmann::json& entry);
+
 // The table's motion from step to step, shared by both runners. A position step stops the table and
 // moves; a rate step goes to its start position first unless the previous step was a rotation of the
 // same plateau from the same start (then it is commanded while the table turns: CW then CCW). The first
@@ -74,7 +83,10 @@ TableStepEnd table_step_end(const StepInfo& step, const io::LogRow& last_row, in
 class TableMotion {
  public:
   using WaitTable = std::function<TableReading(const std::string& what)>;
-  TableMotion(Bench& bench, WaitTable wait_table) : bench_(bench), wait_(std::move(wait_table)) {}
+  // journal_turning(si, reading): appends table_turning_entry before a continued rotation is commanded.
+  using JournalTurning = std::function<void(const StepInfo& si, const TableReading& r)>;
+  TableMotion(Bench& bench, WaitTable wait_table, JournalTurning journal_turning)
+      : bench_(bench), wait_(std::move(wait_table)), journal_(std::move(journal_turning)) {}
   void on_resume(std::function<TableStepEnd(const std::string& key)> before) { before_ = std::move(before); }
   // Commands the table for `si`; the caller then waits for in-position and settled. Throws what the
   // bench or wait_table throws.
@@ -87,6 +99,7 @@ class TableMotion {
  private:
   Bench& bench_;
   WaitTable wait_;
+  JournalTurning journal_;
   std::function<TableStepEnd(const std::string&)> before_;
   TableStepEnd last_;  // the last step commanded by this process
   bool first_ = true;

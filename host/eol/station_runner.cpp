@@ -153,9 +153,11 @@ StationRunResult StationRunner::run() {
   const std::string started_utc = jc.entries[0].value("started_utc", records::utc_now_iso8601());
   std::map<std::string, std::string> failed_before;  // slot -> reason, from unit_failed entries
   json batch_recording, batch_recorded, finished;
+  std::map<std::string, json> turning;  // table_turning entries by step key (schedule.h)
   for (const auto& e : jc.entries) {
     const std::string type = e.value("type", "");
     if (type == "unit_failed") failed_before[e.value("slot", "")] = e.value("reason", "");
+    else if (type == "table_turning") turning[e.value("key", "")] = e;
     else if (type == "batch_recording") batch_recording = e;
     else if (type == "batch_recorded") batch_recorded = e;
     else if (type == "finished") finished = e;
@@ -367,12 +369,17 @@ StationRunResult StationRunner::run() {
       bench_.wait(0.1);
     }
   };
-  // After a resume, the step the interrupted run collected before `key`: in a unit that has `key` (a step
-  // re-run for the units that lack it), the segment before it; else the last segment of the unit that got
-  // furthest.
-  TableMotion motion(bench_, [&](const std::string& what) { return wait_table(what); });
+  // After a resume, the state the interrupted run commanded `key` from: its table_turning entry in the
+  // station journal; else the end of the step collected before it: in a unit that has `key` (a step re-run
+  // for the units that lack it), the segment before it; else the last segment of the unit that got furthest.
+  TableMotion motion(
+      bench_, [&](const std::string& what) { return wait_table(what); },
+      [&](const StepInfo& si, const TableReading& r) { journal->append(table_turning_entry(si, r)); });
   if (opt_.resume)
-    motion.on_resume([&units](const std::string& key) {
+    motion.on_resume([&units, &turning, &step_by_key](const std::string& key) {
+      const auto t = turning.find(key);
+      const auto step = step_by_key.find(key);
+      if (t != turning.end() && step != step_by_key.end()) return table_turning_state(*step->second, t->second);
       const Unit* furthest = nullptr;
       for (const Unit& u : units) {
         for (std::size_t i = 0; i < u.order.size(); ++i)

@@ -7,6 +7,8 @@
 // σ (a σ spec below the fixture's floor is never "met": no early stop).
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -15,6 +17,7 @@
 #include "host/eol/journal.h"
 #include "host/eol/runner.h"
 #include "host/eol/station_runner.h"
+#include "host/io/log.h"
 #include "host/records/store.h"
 #include "tests/eol/fake_world.h"
 
@@ -174,7 +177,13 @@ class LabBench : public Bench {
   void set_chamber(double sp, double r) override { all([&](Bench& b) { b.set_chamber(sp, r); }); }
   double chamber_air_C() override { return first([](Bench& b) { return b.chamber_air_C(); }); }
   void command_position(const std::array<double, 3>& a) override { all([&](Bench& b) { b.command_position(a); }); }
-  void command_rate(const std::array<double, 3>& r) override { all([&](Bench& b) { b.command_rate(r); }); }
+  void command_rate(const std::array<double, 3>& r) override {
+    sync();
+    rate_commands.push_back({lab_.w[0]->ang, r});
+    all([&](Bench& b) { b.command_rate(r); });
+  }
+  // Every rate command with the table angles it was given at (world 0; the worlds share one clock here).
+  std::vector<std::pair<std::array<double, 3>, std::array<double, 3>>> rate_commands;
   TableReading table() override { return first([](Bench& b) { return b.table(); }); }
   double time_s() override { return first([](Bench& b) { return b.time_s(); }); }
   void wait(double s) override { all([&](Bench& b) { b.wait(s); }); }
@@ -373,4 +382,88 @@ TEST(StationRunner, TrackerSteersOnTheHonestSigma) {
   const StationRunResult r2 = s2.run(options(dir2, dir2.station(2, nlohmann::json::object(), 4.0)));
   EXPECT_TRUE(r2.early_stopped);
   EXPECT_EQ(r2.passed, 2);
+}
+
+// A crash around the second rotation of a CW/CCW pair ("z CCW", commanded while the table still turned
+// from "z CW"): the resume must bring the one table back to the state "z CCW" was commanded from
+// (TableMotion, host/eol/schedule.h). Three cases:
+//  - z CCW was commanded (its table_turning entry is in the station journal) and one unit lacks it (a
+//    crash between the units' appends): commanded again at the uninterrupted run's angle;
+//  - the same without the entry (a journal written before it existed): from the end of the step before it
+//    in the unit that has it (z CW's last row);
+//  - z CCW never commanded (crash right after z CW): from the end of the furthest unit's last segment.
+// (In this lab the uninterrupted run's fixture clock runs on between z CW's last sample and the z CCW
+// command — a unit thread's run_clock() syncs the worlds — so without the entry the angle is z CW's end,
+// not the uninterrupted command angle: on a real station the gap is the host's time between segments.)
+TEST(StationRunner, ContinuedRotationInFlightResumesAtTheSamePhase) {
+  const std::array<double, 3> ccw_dps{-100, 0, 0};  // "z CCW", plateau 0 step 12, after "z CW" (step 11)
+  auto angle_at_first = [&](const LabBench& b) {
+    for (const auto& c : b.rate_commands)
+      if (c.second == ccw_dps) return c.first;
+    ADD_FAILURE() << "z CCW never commanded";
+    return std::array<double, 3>{};
+  };
+  auto drop_lines = [](const fs::path& file, const std::function<bool(const std::string&, bool last)>& drop) {
+    std::vector<std::string> lines;
+    {
+      std::ifstream f(file);
+      for (std::string l; std::getline(f, l);) lines.push_back(l);
+    }
+    std::ofstream f(file, std::ios::trunc);
+    for (std::size_t i = 0; i < lines.size(); ++i)
+      if (!drop(lines[i], i + 1 == lines.size())) f << lines[i] << "\n";
+  };
+  Dir ref_dir;
+  const std::string ref_st = ref_dir.station(2);
+  Station ref(2);
+  auto ro = options(ref_dir, ref_st);
+  ro.early_stop = false;
+  ASSERT_NO_THROW(ref.run(ro));
+  const std::array<double, 3> ref_angle = angle_at_first(ref.bench);
+  struct Case {
+    int safe;
+    bool keep_entry;
+  };
+  for (const Case c : {Case{13, true}, Case{13, false}, Case{12, true}}) {
+    SCOPED_TRACE("crash after " + std::to_string(c.safe) + " steps" + (c.keep_entry ? "" : ", no table_turning entry"));
+    Dir dir;
+    const std::string st = dir.station(2);
+    Station s(2);
+    auto o = options(dir, st);
+    o.early_stop = false;
+    o.crash_after_steps = c.safe;
+    EXPECT_THROW(s.run(o), SimulatedCrash);
+    const fs::path run = dir.d / "run";
+    if (c.safe == 13)  // slot02 loses its last append ("z CCW")
+      drop_lines(run / "slot02" / "journal.log", [&](const std::string& l, bool last) {
+        if (last) EXPECT_NE(l.find(step_key(0, 12)), std::string::npos);
+        return last;
+      });
+    if (!c.keep_entry)
+      drop_lines(run / "journal.log", [](const std::string& l, bool) { return l.find("table_turning") != std::string::npos; });
+    // The end of z CW, from slot01's safe segment.
+    std::array<double, 3> cw_end{};
+    {
+      io::LogReader r((run / "slot01" / "segments" / (step_key(0, 11) + ".bin")).string());
+      io::LogRow row;
+      while (r.next(row))
+        for (std::size_t ax = 0; ax < 2; ++ax) cw_end[ax] = row.table_angle_rad[ax] * 180.0 / M_PI;
+    }
+    for (auto& w : s.lab.w) w->rate = {0, 0, 0};  // the table stopped while the host was down
+    s.bench.rate_commands.clear();
+    StationRunOptions r2;
+    r2.out_dir = o.out_dir;
+    r2.resume = true;
+    r2.early_stop = false;
+    r2.threads = 2;
+    r2.progress = nullptr;
+    const StationRunResult r = s.run(r2);
+    ASSERT_EQ(r.units.size(), 2u);
+    EXPECT_TRUE(r.units[0].pass && r.units[1].pass);
+    const std::array<double, 3> a = angle_at_first(s.bench);
+    const std::array<double, 3> want = c.safe == 13 && c.keep_entry ? ref_angle : cw_end;
+    for (std::size_t ax = 0; ax < 2; ++ax)
+      EXPECT_LT(std::fabs(std::remainder(a[ax] - want[ax], 360.0)), 1e-6)
+          << "axis " << ax << ": z CCW commanded at " << a[ax] << " deg, expected " << want[ax];
+  }
 }
