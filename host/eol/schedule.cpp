@@ -162,8 +162,10 @@ bool continues_rotation(const TableStepEnd& prev, const StepInfo& next) {
 
 TableReading restore_turning(Bench& bench, const TableStepEnd& end, const TableMotion::WaitTable& wait_table,
                              const std::string& what) {
+  // The axes that do not turn hold the step's start position (which IMU axis the rotation is about).
   std::array<double, 3> at{};
-  for (std::size_t i = 0; i < 3; ++i) at[i] = std::remainder(end.angle_deg[i], 360.0);
+  for (std::size_t i = 0; i < 3; ++i)
+    at[i] = std::fabs(end.rate_dps[i]) < 1e-9 ? end.start_deg[i] : std::remainder(end.angle_deg[i], 360.0);
   bench.command_rate({0, 0, 0});
   bench.command_position(at);
   wait_table(what + " (its start angle)");
@@ -198,7 +200,6 @@ void TableMotion::command(const StepInfo& si) {
     const bool continued = continues_rotation(prev, si);
     if (continued && restore && prev.have_state) {
       restore_turning(bench_, prev, wait_, "restoring the rotation before " + si.label);
-      ++restored_;
     } else if (continued && !restore) {
       if (journal_) journal_(si, bench_.table());
     } else {

@@ -93,8 +93,6 @@ class TableMotion {
   void command(const StepInfo& si);
   // The table was stopped: the next rotation starts from its start position.
   void stopped();
-  // How many continued rotations were restored after a resume (0 or 1 per process).
-  int restored() const { return restored_; }
 
  private:
   Bench& bench_;
@@ -103,7 +101,6 @@ class TableMotion {
   std::function<TableStepEnd(const std::string&)> before_;
   TableStepEnd last_;  // the last step commanded by this process
   bool first_ = true;
-  int restored_ = 0;
 };
 
 // Brings the table to `end`'s state: at its angles and turning at its rates (one full spin-up, then a
