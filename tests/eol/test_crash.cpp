@@ -181,6 +181,30 @@ int wait_child(pid_t pid) {
   return st;
 }
 
+// A folder holding this file's campaign, model and station.
+fs::path input_dir(const std::string& prefix) {
+  const fs::path d = fs::temp_directory_path() / (prefix + records::new_record_id());
+  fs::create_directories(d);
+  std::ofstream(d / "campaign.json") << kCampaign;
+  std::ofstream(d / "model.json") << kModel;
+  std::ofstream(d / "station.json") << kStation;
+  return d;
+}
+
+// A full-schedule run (early stop off: the same segments in every run) into d/name, records in `db`
+// (default: SQLite d/name.db).
+RunOptions run_options(const fs::path& d, const std::string& name, const std::string& db = "") {
+  RunOptions o;
+  o.out_dir = (d / name).string();
+  o.serial = "SN-42";
+  o.campaign_path = (d / "campaign.json").string();
+  o.station_path = (d / "station.json").string();
+  o.db = db.empty() ? (d / (name + ".db")).string() : db;
+  o.early_stop = false;
+  o.progress = nullptr;
+  return o;
+}
+
 int env_int(const char* name, int def) {
   const char* v = std::getenv(name);
   return v != nullptr ? std::atoi(v) : def;
@@ -189,22 +213,8 @@ int env_int(const char* name, int def) {
 }  // namespace
 
 TEST(Crash, SigkillAtRandomPointsThenResumeEqualsUninterrupted) {
-  const fs::path d = fs::temp_directory_path() / ("imuforge-crash-" + records::new_record_id());
-  fs::create_directories(d);
-  std::ofstream(d / "campaign.json") << kCampaign;
-  std::ofstream(d / "model.json") << kModel;
-  std::ofstream(d / "station.json") << kStation;
-  auto opts = [&](const std::string& name) {
-    RunOptions o;
-    o.out_dir = (d / name).string();
-    o.serial = "SN-42";
-    o.campaign_path = (d / "campaign.json").string();
-    o.station_path = (d / "station.json").string();
-    o.db = (d / (name + ".db")).string();
-    o.early_stop = false;  // the full schedule: the same segments in every run
-    o.progress = nullptr;
-    return o;
-  };
+  const fs::path d = input_dir("imuforge-crash-");
+  auto opts = [&](const std::string& name) { return run_options(d, name); };
 
   // The uninterrupted reference, in a child like the others; its wall time spans the kill moments.
   // The lab's state lives in shared memory: it survives a killed run (as a real lab does).
@@ -354,22 +364,8 @@ InProcessRun run_in_process(const RunOptions& o, eoltest::FakeWorld& w, eoltest:
 
 void pg_drop_mid_write(bool stop_server) {
   imuforge::testing::PgServer pg;
-  const fs::path d = fs::temp_directory_path() / ("imuforge-pgdrop-" + records::new_record_id());
-  fs::create_directories(d);
-  std::ofstream(d / "campaign.json") << kCampaign;
-  std::ofstream(d / "model.json") << kModel;
-  std::ofstream(d / "station.json") << kStation;
-  auto opts = [&](const std::string& name, const std::string& db) {
-    RunOptions o;
-    o.out_dir = (d / name).string();
-    o.serial = "SN-42";
-    o.campaign_path = (d / "campaign.json").string();
-    o.station_path = (d / "station.json").string();
-    o.db = db;
-    o.early_stop = false;
-    o.progress = nullptr;
-    return o;
-  };
+  const fs::path d = input_dir("imuforge-pgdrop-");
+  auto opts = [&](const std::string& name, const std::string& db) { return run_options(d, name, db); };
   // The uninterrupted reference (SQLite: the back end does not change the record's content).
   eoltest::FakeWorld wref;
   wref.noise_per_stream = true;
@@ -482,22 +478,8 @@ TEST(CrashPostgres, ServerStoppedMidRecordThenResume) { pg_drop_mid_write(true);
 // temperature, and parameters within σ/10. Before the restore, the phase differed by ~80° and the
 // parameters by up to 0.6 σ.
 TEST(Crash, ContinuedRotationInFlightIsCollectedAgainAtTheSamePhase) {
-  const fs::path d = fs::temp_directory_path() / ("imuforge-crashrot-" + records::new_record_id());
-  fs::create_directories(d);
-  std::ofstream(d / "campaign.json") << kCampaign;
-  std::ofstream(d / "model.json") << kModel;
-  std::ofstream(d / "station.json") << kStation;
-  auto opts = [&](const std::string& name) {
-    RunOptions o;
-    o.out_dir = (d / name).string();
-    o.serial = "SN-42";
-    o.campaign_path = (d / "campaign.json").string();
-    o.station_path = (d / "station.json").string();
-    o.db = (d / (name + ".db")).string();
-    o.early_stop = false;
-    o.progress = nullptr;
-    return o;
-  };
+  const fs::path d = input_dir("imuforge-crashrot-");
+  auto opts = [&](const std::string& name) { return run_options(d, name); };
   eoltest::FakeWorld wref;
   wref.noise_per_stream = true;
   eoltest::FakeDevice dref(wref, "SN-42");

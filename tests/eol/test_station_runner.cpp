@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <set>
 
@@ -282,6 +283,29 @@ void expect_records(const StationRunResult& r, const fs::path& run, std::size_t 
   }
 }
 
+// `imuforge run --resume DIR` of a full-schedule station run.
+StationRunOptions resume_options(const std::string& out_dir) {
+  StationRunOptions ro;
+  ro.out_dir = out_dir;
+  ro.resume = true;
+  ro.early_stop = false;
+  ro.threads = 2;
+  ro.progress = nullptr;
+  return ro;
+}
+
+// Rewrites a journal without the lines drop(line, is_last) picks (a crash that lost them).
+void drop_lines(const fs::path& file, const std::function<bool(const std::string&, bool last)>& drop) {
+  std::vector<std::string> lines;
+  {
+    std::ifstream f(file);
+    for (std::string l; std::getline(f, l);) lines.push_back(l);
+  }
+  std::ofstream f(file, std::ios::trunc);
+  for (std::size_t i = 0; i < lines.size(); ++i)
+    if (!drop(lines[i], i + 1 == lines.size())) f << lines[i] << "\n";
+}
+
 }  // namespace
 
 TEST(StationRunner, EveryUnitIsFinishedAndFailuresAreReportedByReason) {
@@ -330,22 +354,11 @@ TEST(StationRunner, CrashMidCollectionResumesPerUnitWithTheSameRecordsOnce) {
   // A crash between two units' journal appends: slot03 lacks the last step slot01 has. The resume must
   // collect it for slot03 only.
   const fs::path run = dir.d / "run";
-  std::vector<std::string> lines;
-  {
-    std::ifstream f(run / "slot03" / "journal.log");
-    for (std::string l; std::getline(f, l);) lines.push_back(l);
-  }
-  ASSERT_NE(lines.back().find("segment_done"), std::string::npos);
-  {
-    std::ofstream f(run / "slot03" / "journal.log", std::ios::trunc);
-    for (std::size_t i = 0; i + 1 < lines.size(); ++i) f << lines[i] << "\n";
-  }
-  StationRunOptions ro;
-  ro.out_dir = o.out_dir;
-  ro.resume = true;
-  ro.early_stop = false;
-  ro.threads = 2;
-  ro.progress = nullptr;
+  drop_lines(run / "slot03" / "journal.log", [](const std::string& l, bool last) {
+    if (last) EXPECT_NE(l.find("segment_done"), std::string::npos);
+    return last;
+  });
+  const StationRunOptions ro = resume_options(o.out_dir);
   const StationRunResult r = s.run(ro);
   ASSERT_EQ(r.units.size(), 3u);
   EXPECT_TRUE(r.units[0].pass);
@@ -403,16 +416,6 @@ TEST(StationRunner, ContinuedRotationInFlightResumesAtTheSamePhase) {
     ADD_FAILURE() << "z CCW never commanded";
     return std::array<double, 3>{};
   };
-  auto drop_lines = [](const fs::path& file, const std::function<bool(const std::string&, bool last)>& drop) {
-    std::vector<std::string> lines;
-    {
-      std::ifstream f(file);
-      for (std::string l; std::getline(f, l);) lines.push_back(l);
-    }
-    std::ofstream f(file, std::ios::trunc);
-    for (std::size_t i = 0; i < lines.size(); ++i)
-      if (!drop(lines[i], i + 1 == lines.size())) f << lines[i] << "\n";
-  };
   Dir ref_dir;
   const std::string ref_st = ref_dir.station(2);
   Station ref(2);
@@ -451,13 +454,7 @@ TEST(StationRunner, ContinuedRotationInFlightResumesAtTheSamePhase) {
     }
     for (auto& w : s.lab.w) w->rate = {0, 0, 0};  // the table stopped while the host was down
     s.bench.rate_commands.clear();
-    StationRunOptions r2;
-    r2.out_dir = o.out_dir;
-    r2.resume = true;
-    r2.early_stop = false;
-    r2.threads = 2;
-    r2.progress = nullptr;
-    const StationRunResult r = s.run(r2);
+    const StationRunResult r = s.run(resume_options(o.out_dir));
     ASSERT_EQ(r.units.size(), 2u);
     EXPECT_TRUE(r.units[0].pass && r.units[1].pass);
     const std::array<double, 3> a = angle_at_first(s.bench);
