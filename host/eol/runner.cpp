@@ -201,6 +201,13 @@ RunResult Runner::run() {
   double run_clock_base = 0.0;  // run time (fixture seconds) already spent by earlier processes
   json finish;                  // finish-stage entries by type
   std::map<std::string, json> verify_segments;  // verification segments collected with the station's units
+  // Where the last safe segment left the table: a continued rotation in flight at the crash is re-run
+  // from that state (TableMotion), not from its start position.
+  std::map<std::string, const StepInfo*> step_by_key;
+  for (const auto& ph : plan)
+    for (const auto& s : ph) step_by_key[s.key] = &s;
+  TableStepEnd last_end;
+  std::map<std::string, json> turning;  // table_turning entries by step key
   ReportData rd;
   rd.names = tracker.names();
   rd.spec = sigma_spec;
@@ -218,6 +225,8 @@ RunResult Runner::run() {
       tracker.add_segment(r.meta(), rows, static_cast<int>(seg_files.size()), e.value("label", ""));
       tracker.add_fixture_segment(file);
       seg_files.push_back(file);
+      const auto step = step_by_key.find(e.at("key").get<std::string>());
+      if (step != step_by_key.end() && !rows.empty()) last_end = table_step_end(*step->second, rows.back(), r.meta().table_axes);
       done.insert(e.at("key").get<std::string>());
       run_clock_base = std::max(run_clock_base, e.value("t_end_s", 0.0));
       if (!rows.empty()) {
@@ -227,6 +236,8 @@ RunResult Runner::run() {
       rd.sigma_t_s.push_back(e.value("t_end_s", 0.0));
       rd.sigma_hist.push_back(tracker.honest_sigma());
       ++res.segments_resumed;
+    } else if (type == "table_turning") {
+      turning[e.at("key").get<std::string>()] = e;
     } else if (type == "verify_segment") {
       verify_segments[e.at("key").get<std::string>()] = e;  // collected by StationRunner, not yet used
     } else if (type == "plateau_done") {
@@ -260,8 +271,6 @@ RunResult Runner::run() {
   const double bench_t0 = peer("fixture clock", [&] { return bench_.time_s(); });
   auto run_clock = [&] { return run_clock_base + (bench_.time_s() - bench_t0); };
   int collected_here = 0;
-  bool rotating = false;
-  std::array<double, 3> rotating_from{};
   double last_air_C = NAN, temp_offset_C = 0.0;
 
   auto progress = [&](int phase, const std::string& label, bool table) {
@@ -305,6 +314,17 @@ RunResult Runner::run() {
       bench_.wait(0.1);
     }
   };
+
+  TableMotion motion(
+      bench_, [&](const std::string& what) { return wait_table(what); },
+      [&](const StepInfo& si, const TableReading& r) { journal->append(table_turning_entry(si, r)); });
+  if (opt_.resume)
+    motion.on_resume([&](const std::string& key) {
+      const auto t = turning.find(key);
+      const auto step = step_by_key.find(key);
+      if (t != turning.end() && step != step_by_key.end()) return table_turning_state(*step->second, t->second);
+      return last_end;
+    });
 
   // Waits, from the IMU's own temperature, until the plateau is reached and settled.
   auto settle_temperature = [&](int phase, double setpoint_C) {
@@ -354,20 +374,9 @@ RunResult Runner::run() {
   // Collects one step's segment, makes it safe, folds it into the tracker.
   auto collect = [&](const StepInfo& si, const std::string& seg_name, bool calibration,
                      std::vector<io::LogRow>* rows_out, std::vector<ImuSample>* raw_out, double dwell_override) {
-    if (si.kind == physics::CampaignStep::Kind::kPosition) {
-      peer("rate table command", [&] { bench_.command_rate({0, 0, 0}); bench_.command_position(si.position_deg); return 0; });
-    } else if (si.kind == physics::CampaignStep::Kind::kRate) {
-      // The axes that do not turn must hold the step's start position (it decides which IMU axis the
-      // rotation is about). Steps may run out of file order (early stop), so unless the table is already
-      // turning from this same start position (CW then CCW), go there first.
-      if (!(rotating && rotating_from == si.position_deg)) {
-        peer("rate table command", [&] { bench_.command_rate({0, 0, 0}); bench_.command_position(si.position_deg); return 0; });
-        wait_table("reaching the start of " + si.label);
-      }
-      peer("rate table command", [&] { bench_.command_rate(si.rate_dps); return 0; });
-    }
-    rotating = si.kind == physics::CampaignStep::Kind::kRate;
-    rotating_from = si.position_deg;
+    // Steps may run out of file order (early stop): TableMotion goes to a rotation's start position
+    // unless the table already turns from it (CW then CCW), and after a resume restores that state.
+    peer("rate table command", [&] { motion.command(si); return 0; });
     TableReading r0 = wait_table("reaching " + si.label);
     const double t_read = bench_.time_s();  // fixture time of r0 (one Modbus round trip later)
     last_air_C = peer("chamber status", [&] { return bench_.chamber_air_C(); });
@@ -557,6 +566,7 @@ RunResult Runner::run() {
     }
     if (!early_stopped && early && meets(tracker.honest_sigma())) early_stopped = done.size() < static_cast<std::size_t>(total_steps);
     peer("rate table stop", [&] { bench_.command_rate({0, 0, 0}); return 0; });
+    motion.stopped();
     journal->append({{"type", "collection_done"}, {"early_stop", early_stopped}, {"t_s", run_clock()},
                      {"segments", seg_files.size()}});
     run_clock_base = run_clock();
@@ -698,6 +708,7 @@ RunResult Runner::run() {
       std::string key = "verify" + std::to_string(vi);
       StepInfo si;
       si.key = key;
+      si.phase = -1;  // not a plateau's step: never continues a calibration rotation
       si.label = vp.label;
       bool is_rate = vp.rate_dps[0] != 0 || vp.rate_dps[1] != 0 || vp.rate_dps[2] != 0;
       si.kind = is_rate ? physics::CampaignStep::Kind::kRate : physics::CampaignStep::Kind::kPosition;

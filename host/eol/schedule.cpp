@@ -118,6 +118,112 @@ void narrow_to_slot(StationConfig& st, physics::Campaign& camp, const std::strin
   }
 }
 
+TableStepEnd table_step_end(const StepInfo& step, const io::LogRow& last_row, int table_axes) {
+  TableStepEnd e;
+  e.rotation = step.kind == physics::CampaignStep::Kind::kRate;
+  e.phase = step.phase;
+  e.start_deg = step.position_deg;
+  e.have_state = table_axes > 0;
+  for (int a = 0; a < table_axes && a < 3; ++a) {
+    const auto i = static_cast<std::size_t>(a);
+    e.angle_deg[i] = last_row.table_angle_rad[a] / kDeg;
+    e.rate_dps[i] = last_row.table_rate_rad_s[a] / kDeg;
+    e.have_state = e.have_state && std::isfinite(e.angle_deg[i]) && std::isfinite(e.rate_dps[i]);
+  }
+  return e;
+}
+
+nlohmann::json table_turning_entry(const StepInfo& si, const TableReading& r) {
+  return {{"type", "table_turning"}, {"key", si.key}, {"angle_deg", r.angle_deg}, {"rate_dps", r.rate_dps}};
+}
+
+TableStepEnd table_turning_state(const StepInfo& si, const nlohmann::json& entry) {
+  TableStepEnd e;
+  e.rotation = true;
+  e.phase = si.phase;
+  e.start_deg = si.position_deg;
+  const auto a = entry.value("angle_deg", std::vector<double>{});
+  const auto w = entry.value("rate_dps", std::vector<double>{});
+  e.have_state = a.size() == 3 && w.size() == 3;
+  for (std::size_t i = 0; i < 3 && e.have_state; ++i) {
+    e.angle_deg[i] = a[i];
+    e.rate_dps[i] = w[i];
+  }
+  return e;
+}
+
+namespace {
+// `next` is commanded while the table still turns as `prev` left it. Not across plateaus: the settling
+// in between lasts as long as the temperature takes, so the phase it leaves is reproduced by nothing.
+bool continues_rotation(const TableStepEnd& prev, const StepInfo& next) {
+  return next.kind == physics::CampaignStep::Kind::kRate && prev.rotation && prev.phase == next.phase &&
+         prev.start_deg == next.position_deg;
+}
+}  // namespace
+
+TableReading restore_turning(Bench& bench, const TableStepEnd& end, const TableMotion::WaitTable& wait_table,
+                             const std::string& what) {
+  // The axes that do not turn hold the step's start position (which IMU axis the rotation is about).
+  std::array<double, 3> at{};
+  for (std::size_t i = 0; i < 3; ++i)
+    at[i] = std::fabs(end.rate_dps[i]) < 1e-9 ? end.start_deg[i] : std::remainder(end.angle_deg[i], 360.0);
+  bench.command_rate({0, 0, 0});
+  bench.command_position(at);
+  wait_table(what + " (its start angle)");
+  bench.command_rate(end.rate_dps);
+  const TableReading r = wait_table(what + " (its rate)");
+  std::size_t k = 0;
+  for (std::size_t i = 1; i < 3; ++i)
+    if (std::fabs(end.rate_dps[i]) > std::fabs(end.rate_dps[k])) k = i;
+  const double w_dps = end.rate_dps[k];
+  if (std::fabs(w_dps) < 1e-9) return r;
+  // The time at which axis k next passes the end angle (modulo a turn), from the reading just taken.
+  const double period_s = 360.0 / std::fabs(w_dps);
+  const double x_s = (end.angle_deg[k] - r.angle_deg[k]) / w_dps;
+  const double dt_s = x_s - std::floor(x_s / period_s) * period_s;
+  if (dt_s > 0) bench.wait(dt_s);
+  return r;
+}
+
+void TableMotion::command(const StepInfo& si) {
+  TableStepEnd prev = last_;
+  bool restore = false;
+  if (first_) {
+    // This process has not moved the table yet: its state is whatever the interrupted run left, or the
+    // station's idle state, not the state the uninterrupted run commanded this step from.
+    prev = before_ ? before_(si.key) : TableStepEnd{};
+    restore = true;
+  }
+  if (si.kind == physics::CampaignStep::Kind::kPosition) {
+    bench_.command_rate({0, 0, 0});
+    bench_.command_position(si.position_deg);
+  } else if (si.kind == physics::CampaignStep::Kind::kRate) {
+    const bool continued = continues_rotation(prev, si);
+    if (continued && restore && prev.have_state) {
+      restore_turning(bench_, prev, wait_, "restoring the rotation before " + si.label);
+    } else if (continued && !restore) {
+      if (journal_) journal_(si, bench_.table());
+    } else {
+      // The axes that do not turn must hold the step's start position (it decides which IMU axis the
+      // rotation is about): go there first.
+      bench_.command_rate({0, 0, 0});
+      bench_.command_position(si.position_deg);
+      wait_("reaching the start of " + si.label);
+    }
+    bench_.command_rate(si.rate_dps);
+  }
+  last_ = TableStepEnd{};
+  last_.rotation = si.kind == physics::CampaignStep::Kind::kRate;
+  last_.phase = si.phase;
+  last_.start_deg = si.position_deg;
+  first_ = false;
+}
+
+void TableMotion::stopped() {
+  last_ = TableStepEnd{};
+  first_ = false;
+}
+
 JournalContents open_run_journal(const std::filesystem::path& journal_path, bool resume,
                                  std::unique_ptr<Journal>* journal) {
   namespace fs = std::filesystem;

@@ -5,12 +5,15 @@
 #pragma once
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "host/eol/journal.h"
+#include "host/eol/ports.h"
 #include "host/eol/station.h"
+#include "host/io/log.h"
 #include "host/model/sensor_model.h"
 #include "host/physics/campaign.h"
 #include "host/physics/table.h"
@@ -46,6 +49,66 @@ bool is_vertical_rotation(const Kin& k, const std::array<double, 3>& angle_deg, 
 // step on a kind a station cannot run or a step without dwell_s.
 std::vector<std::vector<StepInfo>> build_plan(const physics::Campaign& camp, const Kin& kin,
                                               const std::string& campaign_path, int* total_steps);
+
+// Where a step left the table: the state a rotation that continues it (CW then CCW from the same start,
+// commanded while the table still turns) starts from. The continued rotation's data depend on the
+// table's phase when it was commanded, so a resumed run must recreate that state (TableMotion).
+struct TableStepEnd {
+  bool rotation = false;                 // the step was a rate run
+  int phase = -1;                        // its phase (-1: none, or a verification pose)
+  std::array<double, 3> start_deg{};     // its start position (the plan's)
+  bool have_state = false;               // angle_deg/rate_dps known
+  std::array<double, 3> angle_deg{};     // the table at the step's last sample (reported angles and rates,
+  std::array<double, 3> rate_dps{};      // as logged in the segment's rows)
+};
+// From the step and its safe segment's last row. No state when the log has no table angles (a segment
+// file written before the rows carried them): the continued rotation then starts from its start position.
+TableStepEnd table_step_end(const StepInfo& step, const io::LogRow& last_row, int table_axes);
+
+// The journal entry `table_turning` (key, angle_deg, rate_dps): the table read just before a continued
+// rotation `si` was commanded, appended before the command. The exact state a resume must recreate (the
+// previous segment's last row is that state only when no table time passes between the two: a real host
+// hashes, journals and folds in between). A journal without it (written before, or a kill between
+// segment_done and this entry) falls back on the previous segment's last row.
+nlohmann::json table_turning_entry(const StepInfo& si, const TableReading& r);
+// The state a `table_turning` entry of step `si` holds, as the end of the step it continued.
+TableStepEnd table_turning_state(const StepInfo& si, const nlohmann::json& entry);
+
+// The table's motion from step to step, shared by both runners. A position step stops the table and
+// moves; a rate step goes to its start position first unless the previous step was a rotation of the
+// same plateau from the same start (then it is commanded while the table turns: CW then CCW). The first
+// step a resumed process runs asks `before(key)` for the step the interrupted process collected before
+// it: when that step continues a rotation, the table is first brought back to that step's end state
+// (restore_turning), so the re-run segment meets gravity at the same phase as in an uninterrupted run.
+class TableMotion {
+ public:
+  using WaitTable = std::function<TableReading(const std::string& what)>;
+  // journal_turning(si, reading): appends table_turning_entry before a continued rotation is commanded.
+  using JournalTurning = std::function<void(const StepInfo& si, const TableReading& r)>;
+  TableMotion(Bench& bench, WaitTable wait_table, JournalTurning journal_turning)
+      : bench_(bench), wait_(std::move(wait_table)), journal_(std::move(journal_turning)) {}
+  void on_resume(std::function<TableStepEnd(const std::string& key)> before) { before_ = std::move(before); }
+  // Commands the table for `si`; the caller then waits for in-position and settled. Throws what the
+  // bench or wait_table throws.
+  void command(const StepInfo& si);
+  // The table was stopped: the next rotation starts from its start position.
+  void stopped();
+
+ private:
+  Bench& bench_;
+  WaitTable wait_;
+  JournalTurning journal_;
+  std::function<TableStepEnd(const std::string&)> before_;
+  TableStepEnd last_;  // the last step commanded by this process
+  bool first_ = true;
+};
+
+// Brings the table to `end`'s state: at its angles and turning at its rates (one full spin-up, then a
+// wait of less than one turn so that the fastest-turning axis passes end.angle_deg, modulo 360°, when
+// this returns; with several axes turning at once only the fastest is phase-matched). Returns the
+// reading the wait was computed from.
+TableReading restore_turning(Bench& bench, const TableStepEnd& end, const TableMotion::WaitTable& wait_table,
+                             const std::string& what);
 
 // A multi-slot station narrowed to one slot: the slot's node and bus, its nest geometry in the campaign
 // (mount rotation, lever arm) and its mount tolerance in the fixture tolerance. What imuforge batch does

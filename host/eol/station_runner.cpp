@@ -84,6 +84,9 @@ struct Unit {
   std::set<std::string> done;        // calibration steps safe
   std::set<std::string> verified;    // verification segments safe
   std::vector<bool> phase_done;
+  // The safe segments in collection order with where each left the table (a resume re-runs a continued
+  // rotation from its predecessor's end state: TableMotion, schedule.h).
+  std::vector<std::pair<std::string, TableStepEnd>> order;
   int segments = 0;
   bool alive = true, collection_done = false;
   std::string failure;               // why it is not alive
@@ -151,9 +154,11 @@ StationRunResult StationRunner::run() {
   const std::string started_utc = jc.entries[0].value("started_utc", records::utc_now_iso8601());
   std::map<std::string, std::string> failed_before;  // slot -> reason, from unit_failed entries
   json batch_recording, batch_recorded, finished;
+  std::map<std::string, json> turning;  // table_turning entries by step key (schedule.h)
   for (const auto& e : jc.entries) {
     const std::string type = e.value("type", "");
     if (type == "unit_failed") failed_before[e.value("slot", "")] = e.value("reason", "");
+    else if (type == "table_turning") turning[e.value("key", "")] = e;
     else if (type == "batch_recording") batch_recording = e;
     else if (type == "batch_recorded") batch_recorded = e;
     else if (type == "finished") finished = e;
@@ -164,6 +169,9 @@ StationRunResult StationRunner::run() {
   const std::vector<std::vector<StepInfo>> plan = build_plan(camp, kinematics_of(camp), opt_.campaign_path, &total_steps);
   res.steps_total = total_steps;
   res.schedule_time_s = camp.nominal_duration_s();
+  std::map<std::string, const StepInfo*> step_by_key;
+  for (const auto& ph : plan)
+    for (const auto& x : ph) step_by_key[x.key] = &x;
 
   // ---- the units ------------------------------------------------------------------------------------
   std::vector<Unit> units(st.slots.size());
@@ -257,6 +265,9 @@ StationRunResult StationRunner::run() {
           while (r.next(row)) rows.push_back(row);
           u.tracker->add_segment(r.meta(), rows, u.segments, e.value("label", ""));
           u.tracker->add_fixture_segment(file);
+          const auto step = step_by_key.find(e.at("key").get<std::string>());
+          if (step != step_by_key.end() && !rows.empty())
+            u.order.emplace_back(step->first, table_step_end(*step->second, rows.back(), r.meta().table_axes));
           ++u.segments;
           u.done.insert(e.at("key").get<std::string>());
           run_clock_base = std::max(run_clock_base, e.value("t_end_s", 0.0));
@@ -344,8 +355,6 @@ StationRunResult StationRunner::run() {
   };
   const double bench_t0 = bench_call([&] { return bench_.time_s(); });
   auto run_clock = [&] { return run_clock_base + (bench_call([&] { return bench_.time_s(); }) - bench_t0); };
-  bool rotating = false;
-  std::array<double, 3> rotating_from{};
   double last_air_C = NAN;
   int steps_here = 0;
 
@@ -361,6 +370,25 @@ StationRunResult StationRunner::run() {
       bench_.wait(0.1);
     }
   };
+  // After a resume, the state the interrupted run commanded `key` from: its table_turning entry in the
+  // station journal; else the end of the step collected before it: in a unit that has `key` (a step re-run
+  // for the units that lack it), the segment before it; else the last segment of the unit that got furthest.
+  TableMotion motion(
+      bench_, [&](const std::string& what) { return wait_table(what); },
+      [&](const StepInfo& si, const TableReading& r) { journal->append(table_turning_entry(si, r)); });
+  if (opt_.resume)
+    motion.on_resume([&units, &turning, &step_by_key](const std::string& key) {
+      const auto t = turning.find(key);
+      const auto step = step_by_key.find(key);
+      if (t != turning.end() && step != step_by_key.end()) return table_turning_state(*step->second, t->second);
+      const Unit* furthest = nullptr;
+      for (const Unit& u : units) {
+        for (std::size_t i = 0; i < u.order.size(); ++i)
+          if (u.order[i].first == key) return i > 0 ? u.order[i - 1].second : TableStepEnd{};
+        if (!u.order.empty() && (furthest == nullptr || u.order.size() > furthest->order.size())) furthest = &u;
+      }
+      return furthest != nullptr ? furthest->order.back().second : TableStepEnd{};
+    });
   auto guarded = [&](const std::string& what, auto&& f) {
     try {
       return f();
@@ -445,21 +473,9 @@ StationRunResult StationRunner::run() {
   // own segment file; calibration segments are journaled and tracked, verification ones journaled.
   auto collect_all = [&](const StepInfo& si, const std::vector<Unit*>& us, bool calibration, double dwell_override) {
     guarded("rate table", [&] {
-      if (si.kind == physics::CampaignStep::Kind::kPosition) {
-        bench_.command_rate({0, 0, 0});
-        bench_.command_position(si.position_deg);
-      } else if (si.kind == physics::CampaignStep::Kind::kRate) {
-        if (!(rotating && rotating_from == si.position_deg)) {
-          bench_.command_rate({0, 0, 0});
-          bench_.command_position(si.position_deg);
-          wait_table("reaching the start of " + si.label);
-        }
-        bench_.command_rate(si.rate_dps);
-      }
+      motion.command(si);
       return 0;
     });
-    rotating = si.kind == physics::CampaignStep::Kind::kRate;
-    rotating_from = si.position_deg;
     const TableReading r0 = guarded("rate table", [&] { return wait_table("reaching " + si.label); });
     const double t_read = bench_.time_s();
     last_air_C = guarded("chamber status", [&] { return bench_.chamber_air_C(); });
@@ -514,6 +530,7 @@ StationRunResult StationRunner::run() {
         u.tracker->add_fixture_segment(file);
         ++u.segments;
         u.done.insert(si.key);
+        u.order.emplace_back(si.key, table_step_end(si, rows.back(), u.meta.table_axes));
       } else {
         u.journal->append({{"type", "verify_segment"}, {"key", si.key}, {"label", si.label}, {"file", rel},
                            {"sha256", sha}, {"rows", rows.size()}});
@@ -651,6 +668,7 @@ StationRunResult StationRunner::run() {
       const VerificationPose& vp = st.verification[i];
       StepInfo si;
       si.key = "verify" + std::to_string(i);
+      si.phase = -1;  // not a plateau's step: never continues a calibration rotation
       si.label = vp.label;
       const bool is_rate = vp.rate_dps[0] != 0 || vp.rate_dps[1] != 0 || vp.rate_dps[2] != 0;
       si.kind = is_rate ? physics::CampaignStep::Kind::kRate : physics::CampaignStep::Kind::kPosition;
@@ -663,6 +681,7 @@ StationRunResult StationRunner::run() {
       if (!us.empty()) collect_all(si, us, false, 0.0);
     }
     guarded("rate table stop", [&] { bench_.command_rate({0, 0, 0}); return 0; });
+    motion.stopped();
     const double t_end = run_clock();
     for (Unit* u : live)
       if (!u->collection_done) {

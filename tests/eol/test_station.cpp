@@ -70,6 +70,14 @@ nlohmann::json read_json(const fs::path& p) {
 
 // Every unit of the batch: one record per serial, the batch naming exactly those records.
 void expect_one_record_per_unit(const fs::path& out, const fs::path& run, int slots, const std::string& dead_slot) {
+  // Under host-sanitize the bench-sim child is instrumented too and reports into its log.
+  {
+    EXPECT_TRUE(fs::exists(out / "bench-sim.log"));
+    std::ifstream sl(out / "bench-sim.log");
+    const std::string sim_log((std::istreambuf_iterator<char>(sl)), {});
+    for (const char* report : {"Sanitizer", "runtime error:"})
+      EXPECT_EQ(sim_log.find(report), std::string::npos) << "sanitizer report from bench-sim:\n" << sim_log;
+  }
   auto store = imuforge::records::open_store((out / "records.sqlite").string());
   const auto sj = imuforge::eol::read_journal((run / "journal.log").string());
   ASSERT_EQ(sj.entries.back()["type"], "finished");

@@ -7,14 +7,18 @@
 // σ (a σ spec below the fixture's floor is never "met": no early stop).
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <set>
 
 #include "host/eol/journal.h"
 #include "host/eol/runner.h"
 #include "host/eol/station_runner.h"
+#include "host/io/log.h"
 #include "host/records/store.h"
 #include "tests/eol/fake_world.h"
 
@@ -174,7 +178,13 @@ class LabBench : public Bench {
   void set_chamber(double sp, double r) override { all([&](Bench& b) { b.set_chamber(sp, r); }); }
   double chamber_air_C() override { return first([](Bench& b) { return b.chamber_air_C(); }); }
   void command_position(const std::array<double, 3>& a) override { all([&](Bench& b) { b.command_position(a); }); }
-  void command_rate(const std::array<double, 3>& r) override { all([&](Bench& b) { b.command_rate(r); }); }
+  void command_rate(const std::array<double, 3>& r) override {
+    sync();
+    rate_commands.push_back({lab_.w[0]->ang, r});
+    all([&](Bench& b) { b.command_rate(r); });
+  }
+  // Every rate command with the table angles it was given at (world 0; the worlds share one clock here).
+  std::vector<std::pair<std::array<double, 3>, std::array<double, 3>>> rate_commands;
   TableReading table() override { return first([](Bench& b) { return b.table(); }); }
   double time_s() override { return first([](Bench& b) { return b.time_s(); }); }
   void wait(double s) override { all([&](Bench& b) { b.wait(s); }); }
@@ -273,6 +283,29 @@ void expect_records(const StationRunResult& r, const fs::path& run, std::size_t 
   }
 }
 
+// `imuforge run --resume DIR` of a full-schedule station run.
+StationRunOptions resume_options(const std::string& out_dir) {
+  StationRunOptions ro;
+  ro.out_dir = out_dir;
+  ro.resume = true;
+  ro.early_stop = false;
+  ro.threads = 2;
+  ro.progress = nullptr;
+  return ro;
+}
+
+// Rewrites a journal without the lines drop(line, is_last) picks (a crash that lost them).
+void drop_lines(const fs::path& file, const std::function<bool(const std::string&, bool last)>& drop) {
+  std::vector<std::string> lines;
+  {
+    std::ifstream f(file);
+    for (std::string l; std::getline(f, l);) lines.push_back(l);
+  }
+  std::ofstream f(file, std::ios::trunc);
+  for (std::size_t i = 0; i < lines.size(); ++i)
+    if (!drop(lines[i], i + 1 == lines.size())) f << lines[i] << "\n";
+}
+
 }  // namespace
 
 TEST(StationRunner, EveryUnitIsFinishedAndFailuresAreReportedByReason) {
@@ -321,22 +354,11 @@ TEST(StationRunner, CrashMidCollectionResumesPerUnitWithTheSameRecordsOnce) {
   // A crash between two units' journal appends: slot03 lacks the last step slot01 has. The resume must
   // collect it for slot03 only.
   const fs::path run = dir.d / "run";
-  std::vector<std::string> lines;
-  {
-    std::ifstream f(run / "slot03" / "journal.log");
-    for (std::string l; std::getline(f, l);) lines.push_back(l);
-  }
-  ASSERT_NE(lines.back().find("segment_done"), std::string::npos);
-  {
-    std::ofstream f(run / "slot03" / "journal.log", std::ios::trunc);
-    for (std::size_t i = 0; i + 1 < lines.size(); ++i) f << lines[i] << "\n";
-  }
-  StationRunOptions ro;
-  ro.out_dir = o.out_dir;
-  ro.resume = true;
-  ro.early_stop = false;
-  ro.threads = 2;
-  ro.progress = nullptr;
+  drop_lines(run / "slot03" / "journal.log", [](const std::string& l, bool last) {
+    if (last) EXPECT_NE(l.find("segment_done"), std::string::npos);
+    return last;
+  });
+  const StationRunOptions ro = resume_options(o.out_dir);
   const StationRunResult r = s.run(ro);
   ASSERT_EQ(r.units.size(), 3u);
   EXPECT_TRUE(r.units[0].pass);
@@ -373,4 +395,67 @@ TEST(StationRunner, TrackerSteersOnTheHonestSigma) {
   const StationRunResult r2 = s2.run(options(dir2, dir2.station(2, nlohmann::json::object(), 4.0)));
   EXPECT_TRUE(r2.early_stopped);
   EXPECT_EQ(r2.passed, 2);
+}
+
+// A crash around the second rotation of a CW/CCW pair ("z CCW", commanded while the table still turned
+// from "z CW"): the resume must bring the one table back to the state "z CCW" was commanded from
+// (TableMotion, host/eol/schedule.h). Three cases:
+//  - z CCW was commanded (its table_turning entry is in the station journal) and one unit lacks it (a
+//    crash between the units' appends): commanded again at the angle the interrupted run commanded it at;
+//  - the same without the entry (a journal written before it existed): from the end of the step before it
+//    in the unit that has it (z CW's last row);
+//  - z CCW never commanded (crash right after z CW): from the end of the furthest unit's last segment.
+// (In this lab the fixture clock may run on between z CW's last sample and the z CCW command, by how the
+// unit threads interleave — a unit thread's run_clock() syncs the worlds — so without the entry the angle
+// is z CW's end, not necessarily the interrupted command angle: on a real station the gap is the host's
+// time between segments.)
+TEST(StationRunner, ContinuedRotationInFlightResumesAtTheSamePhase) {
+  const std::array<double, 3> ccw_dps{-100, 0, 0};  // "z CCW", plateau 0 step 12, after "z CW" (step 11)
+  auto angle_at_first = [&](const LabBench& b) {
+    for (const auto& c : b.rate_commands)
+      if (c.second == ccw_dps) return c.first;
+    ADD_FAILURE() << "z CCW never commanded";
+    return std::array<double, 3>{};
+  };
+  struct Case {
+    int safe;
+    bool keep_entry;
+  };
+  for (const Case c : {Case{13, true}, Case{13, false}, Case{12, true}}) {
+    SCOPED_TRACE("crash after " + std::to_string(c.safe) + " steps" + (c.keep_entry ? "" : ", no table_turning entry"));
+    Dir dir;
+    const std::string st = dir.station(2);
+    Station s(2);
+    auto o = options(dir, st);
+    o.early_stop = false;
+    o.crash_after_steps = c.safe;
+    EXPECT_THROW(s.run(o), SimulatedCrash);
+    const fs::path run = dir.d / "run";
+    if (c.safe == 13)  // slot02 loses its last append ("z CCW")
+      drop_lines(run / "slot02" / "journal.log", [&](const std::string& l, bool last) {
+        if (last) EXPECT_NE(l.find(step_key(0, 12)), std::string::npos);
+        return last;
+      });
+    if (!c.keep_entry)
+      drop_lines(run / "journal.log", [](const std::string& l, bool) { return l.find("table_turning") != std::string::npos; });
+    // The end of z CW, from slot01's safe segment.
+    std::array<double, 3> cw_end{};
+    {
+      io::LogReader r((run / "slot01" / "segments" / (step_key(0, 11) + ".bin")).string());
+      io::LogRow row;
+      while (r.next(row))
+        for (std::size_t ax = 0; ax < 2; ++ax) cw_end[ax] = row.table_angle_rad[ax] * 180.0 / M_PI;
+    }
+    const std::array<double, 3> first_angle = c.safe == 13 ? angle_at_first(s.bench) : std::array<double, 3>{};
+    for (auto& w : s.lab.w) w->rate = {0, 0, 0};  // the table stopped while the host was down
+    s.bench.rate_commands.clear();
+    const StationRunResult r = s.run(resume_options(o.out_dir));
+    ASSERT_EQ(r.units.size(), 2u);
+    EXPECT_TRUE(r.units[0].pass && r.units[1].pass);
+    const std::array<double, 3> a = angle_at_first(s.bench);
+    const std::array<double, 3> want = c.safe == 13 && c.keep_entry ? first_angle : cw_end;
+    for (std::size_t ax = 0; ax < 2; ++ax)
+      EXPECT_LT(std::fabs(std::remainder(a[ax] - want[ax], 360.0)), 1e-6)
+          << "axis " << ax << ": z CCW commanded at " << a[ax] << " deg, expected " << want[ax];
+  }
 }
