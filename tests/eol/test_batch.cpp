@@ -123,8 +123,8 @@ TEST(Batch, DeadNodeFailsAloneOutlierIsMarkedOthersPass) {
   const auto verdict = html.find("7 of 8 units PASS"), first_table = html.find("<table");
   ASSERT_NE(verdict, std::string::npos);
   EXPECT_LT(verdict, first_table) << "verdict first";
-  EXPECT_NE(html.find("slot04 SN-103</b> FAIL: no calibration"), std::string::npos);
-  EXPECT_NE(html.find("slot06 SN-105</b> passes but is far from its batch"), std::string::npos);
+  EXPECT_NE(html.find("slot04 (serial SN-103)</b> FAIL: no calibration"), std::string::npos);
+  EXPECT_NE(html.find("slot06 (serial SN-105)</b> passes but is far from its batch"), std::string::npos);
   EXPECT_EQ(html.find("<script"), std::string::npos);
   EXPECT_EQ(eol::batch_to_json(r)["units_passed"], 7);
   // Records: one per unit (the dead one too, with its reason) and the batch naming them.
