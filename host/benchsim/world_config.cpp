@@ -1,6 +1,6 @@
-#include "host/physics/units.h"
 #include "host/io/campaign_file.h"
 #include "host/benchsim/world_config.h"
+#include "host/physics/units.h"
 
 #include <algorithm>
 #include <fstream>

@@ -2,9 +2,9 @@
 // finish share one journal-backed state (segments made safe, record id journaled before the insert) whose
 // ordering is the crash-consistency guarantee (docs/eol.md); the multi-unit StationRunner finishes each
 // unit through this same run() with a bench that refuses moves.
-#include "host/physics/units.h"
 #include "host/io/campaign_file.h"
 #include "host/eol/runner.h"
+#include "host/physics/units.h"
 
 #include <chrono>
 #include <cmath>
@@ -203,9 +203,7 @@ RunResult Runner::run() {
   std::map<std::string, json> verify_segments;  // verification segments collected with the station's units
   // Where the last safe segment left the table: a continued rotation in flight at the crash is re-run
   // from that state (TableMotion), not from its start position.
-  std::map<std::string, const StepInfo*> step_by_key;
-  for (const auto& ph : plan)
-    for (const auto& s : ph) step_by_key[s.key] = &s;
+  const StepIndex step_by_key = index_steps(plan);
   TableStepEnd last_end;
   std::map<std::string, json> turning;  // table_turning entries by step key
   ReportData rd;
@@ -320,9 +318,7 @@ RunResult Runner::run() {
       [&](const StepInfo& si, const TableReading& r) { journal->append(table_turning_entry(si, r)); });
   if (opt_.resume)
     motion.on_resume([&](const std::string& key) {
-      const auto t = turning.find(key);
-      const auto step = step_by_key.find(key);
-      if (t != turning.end() && step != step_by_key.end()) return table_turning_state(*step->second, t->second);
+      if (const auto j = journaled_turning(turning, step_by_key, key)) return *j;
       return last_end;
     });
 

@@ -1,4 +1,3 @@
-#include "host/physics/units.h"
 #include "host/eol/schedule.h"
 
 #include <cmath>
@@ -6,6 +5,7 @@
 
 #include "host/io/campaign_file.h"
 #include "host/physics/earth.h"
+#include "host/physics/units.h"
 #include "host/records/store.h"
 #include "host/solver/sha256.h"
 
@@ -137,7 +137,20 @@ nlohmann::json table_turning_entry(const StepInfo& si, const TableReading& r) {
   return {{"type", "table_turning"}, {"key", si.key}, {"angle_deg", r.angle_deg}, {"rate_dps", r.rate_dps}};
 }
 
-TableStepEnd table_turning_state(const StepInfo& si, const nlohmann::json& entry) {
+StepIndex index_steps(const std::vector<std::vector<StepInfo>>& plan) {
+  StepIndex ix;
+  for (const auto& ph : plan)
+    for (const auto& s : ph) ix[s.key] = &s;
+  return ix;
+}
+
+std::optional<TableStepEnd> journaled_turning(const std::map<std::string, nlohmann::json>& turning,
+                                              const StepIndex& steps, const std::string& key) {
+  const auto t = turning.find(key);
+  const auto step = steps.find(key);
+  if (t == turning.end() || step == steps.end()) return std::nullopt;
+  const StepInfo& si = *step->second;
+  const nlohmann::json& entry = t->second;
   TableStepEnd e;
   e.rotation = true;
   e.phase = si.phase;

@@ -6,7 +6,9 @@
 #include <array>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -71,8 +73,14 @@ TableStepEnd table_step_end(const StepInfo& step, const io::LogRow& last_row, in
 // hashes, journals and folds in between). A journal without it (written before, or a kill between
 // segment_done and this entry) falls back on the previous segment's last row.
 nlohmann::json table_turning_entry(const StepInfo& si, const TableReading& r);
-// The state a `table_turning` entry of step `si` holds, as the end of the step it continued.
-TableStepEnd table_turning_state(const StepInfo& si, const nlohmann::json& entry);
+// The plan's steps by key (pointers into `plan`, which must outlive the index).
+using StepIndex = std::map<std::string, const StepInfo*>;
+StepIndex index_steps(const std::vector<std::vector<StepInfo>>& plan);
+// After a resume: the state the `table_turning` entry journaled for step `key` holds (`turning`: the
+// journal's entries by step key), as the end of the step it continued; nullopt when none was journaled
+// for it (the caller then falls back on the previous segment's last row) or `key` is not in the plan.
+std::optional<TableStepEnd> journaled_turning(const std::map<std::string, nlohmann::json>& turning,
+                                              const StepIndex& steps, const std::string& key);
 
 // The table's motion from step to step, shared by both runners. A position step stops the table and
 // moves; a rate step goes to its start position first unless the previous step was a rotation of the

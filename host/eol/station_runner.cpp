@@ -1,6 +1,5 @@
 // The live multi-unit run: see station_runner.h. One piece because collection, per-unit resume and the
 // batch record share the unit state below; the per-unit finish is the single-unit Runner's.
-#include "host/physics/units.h"
 #include "host/eol/station_runner.h"
 
 #include <time.h>
@@ -25,6 +24,7 @@
 #include "host/io/campaign_file.h"
 #include "host/io/log.h"
 #include "host/physics/earth.h"
+#include "host/physics/units.h"
 #include "host/records/store.h"
 #include "host/solver/consider.h"
 #include "host/solver/sha256.h"
@@ -169,9 +169,7 @@ StationRunResult StationRunner::run() {
   const std::vector<std::vector<StepInfo>> plan = build_plan(camp, kinematics_of(camp), opt_.campaign_path, &total_steps);
   res.steps_total = total_steps;
   res.schedule_time_s = camp.nominal_duration_s();
-  std::map<std::string, const StepInfo*> step_by_key;
-  for (const auto& ph : plan)
-    for (const auto& x : ph) step_by_key[x.key] = &x;
+  const StepIndex step_by_key = index_steps(plan);
 
   // ---- the units ------------------------------------------------------------------------------------
   std::vector<Unit> units(st.slots.size());
@@ -378,9 +376,7 @@ StationRunResult StationRunner::run() {
       [&](const StepInfo& si, const TableReading& r) { journal->append(table_turning_entry(si, r)); });
   if (opt_.resume)
     motion.on_resume([&units, &turning, &step_by_key](const std::string& key) {
-      const auto t = turning.find(key);
-      const auto step = step_by_key.find(key);
-      if (t != turning.end() && step != step_by_key.end()) return table_turning_state(*step->second, t->second);
+      if (const auto j = journaled_turning(turning, step_by_key, key)) return *j;
       const Unit* furthest = nullptr;
       for (const Unit& u : units) {
         for (std::size_t i = 0; i < u.order.size(); ++i)

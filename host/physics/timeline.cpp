@@ -1,5 +1,5 @@
-#include "host/physics/units.h"
 #include "host/physics/timeline.h"
+#include "host/physics/units.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,3 @@
-#include "host/physics/units.h"
 #include "host/sim/simulator.h"
 
 #include <cmath>
@@ -6,6 +5,7 @@
 
 #include "host/model/measure.h"
 #include "host/physics/earth.h"
+#include "host/physics/units.h"
 #include "host/sim/noise.h"
 #include "host/sim/sensor_chain.h"
 #include "host/physics/timeline.h"
