@@ -30,13 +30,7 @@ std::uint8_t store_status(int e) noexcept {
   }
 }
 
-void send_stream_frame(CanNode& n, std::uint8_t part, const std::uint8_t payload[8]) noexcept {
-  hal::CanFrame f;
-  f.id = stream_id(n.cfg.node_id, part, n.cfg.extended_ids);
-  f.extended = n.cfg.extended_ids;
-  f.len = 8;
-  std::memcpy(f.data, payload, 8);
-  const int rc = n.port->send(f);
+void count_stream_tx(CanNode& n, int rc) noexcept {
   if (rc == hal::kCanOk) {
     ++n.counters.stream_frames_tx;
     n.bus_off = false;
@@ -49,11 +43,61 @@ void send_stream_frame(CanNode& n, std::uint8_t part, const std::uint8_t payload
   }
 }
 
+void send_stream_frame(CanNode& n, std::uint8_t part, const std::uint8_t payload[8]) noexcept {
+  hal::CanFrame f;
+  f.id = stream_id(n.cfg.node_id, part, n.cfg.extended_ids);
+  f.extended = n.cfg.extended_ids;
+  f.len = 8;
+  std::memcpy(f.data, payload, 8);
+  count_stream_tx(n, n.port->send(f));
+}
+
+// Sends the FD frame under construction, if it holds any sample. Called when it is full and before
+// anything that breaks the run of consecutive samples (stop, reboot, a skipped seq), because the frame
+// only carries the first sample's seq and t_us.
+void flush_fd_frame(CanNode& n) noexcept {
+  if (n.fd_count == 0u) return;
+  n.fd_frame.data[2] = n.fd_count;
+  count_stream_tx(n, n.port->send_fd(n.fd_frame));
+  n.fd_count = 0;
+}
+
+void pack_fd_sample(CanNode& n, const hal::ImuRawSample& s, std::uint64_t t_us) noexcept {
+  hal::CanFdFrame& f = n.fd_frame;
+  if (n.fd_count == 0u) {
+    f.id = stream_id(n.cfg.node_id, kPartFd, n.cfg.extended_ids);
+    f.extended = n.cfg.extended_ids;
+    f.fd = true;
+    f.brs = true;
+    f.len = static_cast<std::uint8_t>(kFdFrameBytes);
+    std::memset(f.data, kFdPadByte, kFdFrameBytes);
+    store_le16(f.data, n.seq);
+    f.data[3] = n.channels;
+    store_le32(f.data + 4, static_cast<std::uint32_t>(t_us));
+    store_le16s(f.data + 8, s.temp_cdegC);
+  }
+  std::uint8_t* p = f.data + kFdHeaderBytes + kFdSampleBytes * n.fd_count;
+  // Channels not streamed read as 0, so a frame never leaks what the host did not ask for.
+  const bool acc = (n.channels & kChAccel) != 0u, gyr = (n.channels & kChGyro) != 0u;
+  for (unsigned i = 0; i < 3; ++i) {
+    store_le16s(p + 2 * i, acc ? s.accel_counts[i] : static_cast<std::int16_t>(0));
+    store_le16s(p + 6 + 2 * i, gyr ? s.gyro_counts[i] : static_cast<std::int16_t>(0));
+  }
+  if (++n.fd_count == kFdSamplesPerFrame) flush_fd_frame(n);
+}
+
 void emit_sample(CanNode& n, std::uint64_t t_us) noexcept {
   hal::ImuRawSample s;
   if (n.sensor->read(t_us, s) != hal::kSensorOk) {
     // The sequence number still advances: the host then sees the sample as lost, which it is.
     ++n.counters.sensor_errors;
+    if (n.stream_fd) flush_fd_frame(n);
+    ++n.seq;
+    return;
+  }
+  if (n.stream_fd) {
+    pack_fd_sample(n, s, t_us);
+    ++n.counters.samples_sent;
     ++n.seq;
     return;
   }
@@ -93,7 +137,9 @@ std::size_t cmd_identify(CanNode& n, std::uint8_t* r) noexcept {
   store_le32(r + k, a != nullptr ? a->len : 0u);
   k += 4;
   r[k++] = n.cfg.node_id;
-  r[k++] = static_cast<std::uint8_t>((n.cfg.extended_ids ? 1u : 0u) | (n.cfg.key_provisioned ? 2u : 0u));
+  r[k++] = static_cast<std::uint8_t>((n.cfg.extended_ids ? kIdExtendedIds : 0u) |
+                                     (n.cfg.key_provisioned ? kIdKeyProvisioned : 0u) |
+                                     (n.cfg.can_fd ? kIdCanFd : 0u));
   return k;
 }
 
@@ -116,7 +162,7 @@ std::size_t cmd_status(CanNode& n, std::uint8_t* r, std::uint64_t now_us) noexce
   }
   r[k++] = static_cast<std::uint8_t>(static_cast<std::int8_t>(n.store.active));
   r[k++] = static_cast<std::uint8_t>(static_cast<std::int8_t>(n.store.staged));
-  r[k++] = n.streaming ? 1u : 0u;
+  r[k++] = n.streaming ? (n.stream_fd ? 2u : 1u) : 0u;
   r[k++] = n.channels;
   store_le16(r + k, n.rate_hz);
   k += 2;
@@ -214,6 +260,8 @@ void node_init(CanNode& n, const NodeConfig& cfg, hal::CanPort& port, hal::Flash
   n.next_sample_us = 0;
   n.seq = 0;
   n.bus_off = false;
+  n.stream_fd = false;
+  n.fd_count = 0;  // a reset loses the frame under construction, as it loses the sensor's FIFO
   n.boot_us = 0;
   n.reboot_pending = false;
   n.reboot_now = false;
@@ -238,16 +286,26 @@ std::size_t node_handle_command(CanNode& n, const std::uint8_t* q, std::size_t l
       k = len == 1u ? cmd_identify(n, r) : reply(r, cmd, kStBadLength);
       break;
     case kCmdStreamStart: {
-      if (len != 4u) {
+      if (len != 4u && len != 5u) {
         k = reply(r, cmd, kStBadLength);
         break;
       }
       const std::uint16_t rate = load_le16(q + 1);
       const std::uint8_t ch = q[3];
-      if (rate < kMinRateHz || rate > kMaxRateHz || ch == 0u || (ch & ~kChAll) != 0u) {
+      const std::uint8_t flags = len == 5u ? q[4] : 0u;
+      if (rate < kMinRateHz || rate > kMaxRateHz || ch == 0u || (ch & ~kChAll) != 0u ||
+          (flags & ~kStreamFlagFd) != 0u) {
         k = reply(r, cmd, kStBadArgument);
         break;
       }
+      const bool fd = (flags & kStreamFlagFd) != 0u;
+      if (fd && !n.cfg.can_fd) {
+        k = reply(r, cmd, kStFdUnsupported);
+        break;
+      }
+      // A restart while streaming: the old run's partial frame goes out first (it has the old seq).
+      if (n.stream_fd) flush_fd_frame(n);
+      n.stream_fd = fd;
       n.rate_hz = rate;
       n.channels = ch;
       n.period_us = 1000000u / rate;
@@ -261,6 +319,9 @@ std::size_t node_handle_command(CanNode& n, const std::uint8_t* q, std::size_t l
         k = reply(r, cmd, kStBadLength);
         break;
       }
+      // The partial FD frame leaves before the response, so the host has every sample when it reads
+      // samples_sent.
+      if (n.stream_fd) flush_fd_frame(n);
       n.streaming = false;
       k = reply(r, cmd, kStOk);
       store_le32(r + k, n.counters.samples_sent);
@@ -281,6 +342,7 @@ std::size_t node_handle_command(CanNode& n, const std::uint8_t* q, std::size_t l
         break;
       }
       n.reboot_pending = true;
+      if (n.stream_fd) flush_fd_frame(n);
       n.streaming = false;
       k = reply(r, cmd, kStOk);
       break;
@@ -327,6 +389,7 @@ void node_poll(CanNode& n, std::uint64_t now_us) noexcept {
       const std::uint64_t depth = n.cfg.fifo_depth_samples > 0u ? n.cfg.fifo_depth_samples : 1u;
       if (waiting > depth) {
         const std::uint64_t over = waiting - depth;
+        if (n.stream_fd) flush_fd_frame(n);  // the frame's samples precede the gap
         n.counters.samples_fifo_overflow += static_cast<std::uint32_t>(over);
         n.seq = static_cast<std::uint16_t>(n.seq + static_cast<std::uint16_t>(over & 0xFFFFu));
         n.next_sample_us += over * n.period_us;

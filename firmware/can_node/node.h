@@ -42,6 +42,9 @@ struct NodeConfig {
   // Samples sent from the FIFO per node_poll: a long backlog drains over several polls, so commands
   // (stream stop, status) are served in between instead of waiting for the whole backlog.
   std::uint16_t max_samples_per_poll = 16;
+  // The port sends CAN FD (CanPort::send_fd). Announced in identify (proto::kIdCanFd); without it a
+  // stream start asking for FD is refused with proto::kStFdUnsupported rather than streaming nothing.
+  bool can_fd = false;
 };
 
 struct NodeCounters {
@@ -76,6 +79,11 @@ struct CanNode {
   std::uint64_t next_sample_us = 0;  // due time of the oldest sample in the FIFO (not yet sent)
   std::uint16_t seq = 0;
   bool bus_off = false;
+  // CAN FD stream (proto::kStreamFlagFd): samples are packed into fd_frame and sent 4 at a time; the
+  // frame under construction holds fd_count samples. One 64-byte buffer, only used when streaming FD.
+  bool stream_fd = false;
+  std::uint8_t fd_count = 0;
+  hal::CanFdFrame fd_frame;
 
   std::uint64_t boot_us = 0;
   bool reboot_pending = false;   // reboot accepted, waiting for the response to leave

@@ -15,7 +15,8 @@ constexpr std::uint8_t kMaxNodeId = 63;
 // 11-bit: stream part k (0 accel, 1 gyro, 2 temp+time) = 0x100 + 4*node + k; command request 0x600+node,
 //         response 0x680+node. Stream IDs are lower, so samples win arbitration over command traffic.
 // 29-bit: stream 0x0A100000 | k<<8 | node; request 0x0A600000 | node; response 0x0A680000 | node.
-enum StreamPart : std::uint8_t { kPartAccel = 0, kPartGyro = 1, kPartTemp = 2, kPartCount = 3 };
+// k = 3 is the CAN FD stream frame (all channels of 4 samples in one frame, see below).
+enum StreamPart : std::uint8_t { kPartAccel = 0, kPartGyro = 1, kPartTemp = 2, kPartCount = 3, kPartFd = 3 };
 
 constexpr std::uint32_t stream_id(std::uint8_t node, std::uint8_t part, bool extended) noexcept {
   return extended ? (0x0A100000u | (static_cast<std::uint32_t>(part) << 8) | node)
@@ -36,6 +37,21 @@ constexpr std::uint32_t response_id(std::uint8_t node, bool extended) noexcept {
 enum Channel : std::uint8_t { kChAccel = 1u, kChGyro = 2u, kChTemp = 4u, kChAll = 7u };
 constexpr std::uint16_t kMinRateHz = 1;
 constexpr std::uint16_t kMaxRateHz = 2000;
+// Stream start's optional 4th argument byte, flags (absent = 0: classic).
+constexpr std::uint8_t kStreamFlagFd = 0x01u;  // CAN FD stream frames
+
+// CAN FD stream frame (stream_id part kPartFd, FDF+BRS, always 64 bytes), little endian:
+//   seq u16 (first sample) | count u8 (1..4) | channels u8 | t_us u32 (first sample) | temp i16 (first
+//   sample, 0.01 degC) | count x { ax ay az gx gy gz i16 } | 0xCC padding to 64 bytes.
+// Sample i has seq + i and t_us + i * period_us, period_us = 1000000 / rate_hz (integer division, the
+// node's own sample period). A frame with count < 4 ends a run of consecutive samples: the last frame
+// before a stop, a reboot or a sequence gap (sensor read error, FIFO overflow).
+constexpr unsigned kFdSamplesPerFrame = 4;
+constexpr unsigned kFdFrameBytes = 64;
+constexpr unsigned kFdHeaderBytes = 10;
+constexpr unsigned kFdSampleBytes = 12;
+constexpr std::uint8_t kFdPadByte = 0xCC;
+static_assert(kFdHeaderBytes + kFdSamplesPerFrame * kFdSampleBytes <= kFdFrameBytes, "FD stream frame layout");
 
 // ---- commands (ISO-TP payloads) ------------------------------------------------------------------
 // Request : cmd u8 | arguments
@@ -43,7 +59,7 @@ constexpr std::uint16_t kMaxRateHz = 2000;
 enum Command : std::uint8_t {
   kCmdIdentify = 0x01,     // -> serial u64 | fw_version char[16] (NUL padded) | table_present u8 |
                            //    table_seq u32 | table_crc32 u32 | table_len u32 | node_id u8 | flags u8
-  kCmdStreamStart = 0x02,  // rate_hz u16 | channels u8  ->  (nothing)
+  kCmdStreamStart = 0x02,  // rate_hz u16 | channels u8 [| flags u8 (kStreamFlagFd)]  ->  (nothing)
   kCmdStreamStop = 0x03,   // -> samples_sent u32
   kCmdReadTable = 0x04,    // -> table_seq u32 | table bytes
   kCmdWriteTable = 0x05,   // seq u32 | tag[32] | table bytes  ->  crc32 u32 of the staged table
@@ -69,12 +85,19 @@ enum Status : std::uint8_t {
   kStNoKey = 0x0C,           // device has no provisioned key: table writes are refused
   kStWrongDevice = 0x0D,     // table's device_serial is not this device's serial
   kStSeqMismatch = 0x0E,     // table's table_sequence differs from the seq of the write request
+  kStFdUnsupported = 0x0F,   // stream start asked for CAN FD; this node's controller/bus has none
 };
+
+// Identify's flags byte.
+constexpr std::uint8_t kIdExtendedIds = 0x01u;
+constexpr std::uint8_t kIdKeyProvisioned = 0x02u;
+constexpr std::uint8_t kIdCanFd = 0x04u;
 
 // Status response layout (after cmd|0x80, status), all u32 little endian unless noted:
 //   uptime_ms | samples_sent | stream_frames_tx | stream_frames_dropped | bus_off_events |
 //   isotp_rx_errors | isotp_tx_errors | commands_ok | commands_rejected | auth_failures |
-//   boots u32 | active_slot i8 | staged_slot i8 | streaming u8 | channels u8 | rate_hz u16 |
+//   boots u32 | active_slot i8 | staged_slot i8 | streaming u8 (0 no, 1 classic, 2 CAN FD) |
+//   channels u8 | rate_hz u16 |
 //   samples_fifo_overflow u32
 constexpr std::size_t kStatusBytes = 11u * 4u + 6u + 4u;
 constexpr std::size_t kIdentifyBytes = 8u + 16u + 1u + 4u + 4u + 4u + 1u + 1u;

@@ -38,6 +38,32 @@ void encode(const CanFrame& f, std::uint8_t out[16]) {
   std::memcpy(out + 8, f.data, 8);
 }
 
+// The on-wire layout of an FD frame, identical to struct canfd_frame (72 bytes).
+void encode_fd(const CanFdFrame& f, std::uint8_t out[CANFD_MTU]) {
+  std::uint32_t id = f.id | (f.extended ? CAN_EFF_FLAG : 0u);
+  std::memset(out, 0, CANFD_MTU);
+  std::memcpy(out, &id, 4);
+  out[4] = f.len;
+  out[5] = static_cast<std::uint8_t>(CANFD_FDF | (f.brs ? CANFD_BRS : 0));
+  std::memcpy(out + 8, f.data, f.len);
+}
+
+// Either layout, by size (16: classic, 72: FD), into the FD type.
+bool decode_any(const std::uint8_t* in, std::size_t n, CanFdFrame* f) {
+  if (n != CAN_MTU && n != CANFD_MTU) return false;
+  std::uint32_t id;
+  std::memcpy(&id, in, 4);
+  if ((id & (CAN_RTR_FLAG | CAN_ERR_FLAG)) != 0u) return false;
+  f->extended = (id & CAN_EFF_FLAG) != 0u;
+  f->id = f->extended ? (id & CAN_EFF_MASK) : (id & CAN_SFF_MASK);
+  f->fd = n == CANFD_MTU;
+  f->brs = f->fd && (in[5] & CANFD_BRS) != 0;
+  f->len = in[4];
+  if (f->len > (f->fd ? kCanFdMaxLen : 8u)) return false;
+  std::memcpy(f->data, in + 8, f->len);
+  return can_fd_frame_valid(*f);
+}
+
 bool decode(const std::uint8_t* in, std::size_t n, CanFrame* f) {
   if (n != 16) return false;
   std::uint32_t id;
@@ -109,6 +135,7 @@ class VirtualPort final : public LinuxCanPort {
       return false;
     }
     port_ = ntohs(a.sin_port);
+    fd_enabled_ = true;
     announce_ = dir_ + "/" + std::to_string(port_);
     if (!write_announce(err)) {
       announce_.clear();
@@ -134,21 +161,58 @@ class VirtualPort final : public LinuxCanPort {
   int send(const CanFrame& frame) noexcept override {
     if (fd_ < 0) return kCanErrClosed;
     if (!can_frame_valid(frame)) return kCanErrArg;
-    refresh(false);
-    std::uint8_t buf[16];
+    std::uint8_t buf[CAN_MTU];
     encode(frame, buf);
-    const std::uint32_t key = filter_key(frame.id, frame.extended);
+    return broadcast(buf, sizeof buf, filter_key(frame.id, frame.extended));
+  }
+
+  int send_fd(const CanFdFrame& frame) noexcept override {
+    if (fd_ < 0) return kCanErrClosed;
+    const int chk = can_fd_frame_check(frame);
+    if (chk != kCanOk) return chk;
+    if (!frame.fd) {
+      CanFrame c;
+      c.id = frame.id;
+      c.extended = frame.extended;
+      c.len = frame.len;
+      std::memcpy(c.data, frame.data, frame.len);
+      return send(c);
+    }
+    std::uint8_t buf[CANFD_MTU];
+    encode_fd(frame, buf);
+    return broadcast(buf, sizeof buf, filter_key(frame.id, frame.extended));
+  }
+
+  int receive_any(CanFdFrame& frame) noexcept override {
+    if (fd_ < 0) return kCanErrClosed;
+    for (;;) {
+      std::uint8_t buf[CANFD_MTU + 8];
+      const ssize_t n = ::recv(fd_, buf, sizeof buf, MSG_DONTWAIT);
+      if (n < 0) {
+        if (errno == EAGAIN || errno == EWOULDBLOCK) return kCanErrWouldBlock;
+        if (errno == EINTR || errno == ECONNREFUSED) continue;
+        error_ = sys_error("virtual bus: recv");
+        return kCanErrIo;
+      }
+      if (decode_any(buf, static_cast<std::size_t>(n), &frame)) return kCanOk;
+    }
+  }
+
+ private:
+  // One datagram (a classic or an FD frame) to every peer whose filter takes `key`.
+  int broadcast(const std::uint8_t* buf, std::size_t len, std::uint32_t key) noexcept {
+    refresh(false);
     for (const Peer& peer : peers_) {
       if (!peer.accept.empty() && !std::binary_search(peer.accept.begin(), peer.accept.end(), key)) continue;
       const sockaddr_in& p = peer.addr;
       ssize_t n = -1;
       for (int attempt = 0; attempt < 3; ++attempt) {
-        n = ::sendto(fd_, buf, sizeof buf, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&p), sizeof p);
+        n = ::sendto(fd_, buf, len, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&p), sizeof p);
         if (n >= 0 || (errno != EAGAIN && errno != ENOBUFS)) break;
         pollfd w{fd_, POLLOUT, 0};  // send buffer full: give the readers up to 2 ms, as a TX mailbox would
         (void)::poll(&w, 1, 2);
       }
-      if (n == static_cast<ssize_t>(sizeof buf)) continue;
+      if (n == static_cast<ssize_t>(len)) continue;
       if (n < 0 && (errno == EAGAIN || errno == ENOBUFS || errno == ECONNREFUSED)) {
         ++tx_dropped_;  // a receiver that does not keep up loses frames, as on a real bus
         continue;
@@ -159,10 +223,11 @@ class VirtualPort final : public LinuxCanPort {
     return kCanOk;
   }
 
+ public:
   int receive(CanFrame& frame) noexcept override {
     if (fd_ < 0) return kCanErrClosed;
     for (;;) {
-      std::uint8_t buf[32];
+      std::uint8_t buf[CANFD_MTU + 8];  // an FD datagram is read whole and skipped
       const ssize_t n = ::recv(fd_, buf, sizeof buf, MSG_DONTWAIT);
       if (n < 0) {
         if (errno == EAGAIN || errno == EWOULDBLOCK) return kCanErrWouldBlock;
@@ -295,6 +360,7 @@ class SocketCanPort final : public LinuxCanPort {
         *err = sys_error("socketcan: CAN_RAW_FD_FRAMES");
         return false;
       }
+      fd_enabled_ = true;
     }
     // Large buffers absorb bursts (catch-up after a stall, a slow reader). The FORCE variants need
     // CAP_NET_ADMIN (root in the VM); otherwise the plain ones, capped by net.core.[rw]mem_max, apply.
@@ -353,6 +419,81 @@ class SocketCanPort final : public LinuxCanPort {
     }
     ++tx_dropped_;
     return kCanErrWouldBlock;
+  }
+
+  int send_fd(const CanFdFrame& frame) noexcept override {
+    if (fd_ < 0) return kCanErrClosed;
+    const int chk = can_fd_frame_check(frame);
+    if (chk != kCanOk) return chk;
+    if (frame.fd && !fd_enabled_) return kCanErrNoFd;
+    canfd_frame cf{};
+    cf.can_id = frame.id | (frame.extended ? CAN_EFF_FLAG : 0u);
+    cf.len = frame.len;
+    cf.flags = frame.fd ? static_cast<std::uint8_t>(CANFD_FDF | (frame.brs ? CANFD_BRS : 0)) : 0;
+    std::memcpy(cf.data, frame.data, frame.len);
+    const std::size_t mtu = frame.fd ? CANFD_MTU : CAN_MTU;
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      const ssize_t n = ::write(fd_, &cf, mtu);
+      if (n == static_cast<ssize_t>(mtu)) return kCanOk;
+      if (n >= 0) {
+        error_ = "socketcan: short write";
+        return kCanErrIo;
+      }
+      if (errno == ENETDOWN) return kCanErrBusOff;
+      if (errno != EAGAIN && errno != ENOBUFS && errno != EINTR) {
+        error_ = sys_error("socketcan: write");
+        return kCanErrIo;
+      }
+      pollfd p{fd_, POLLOUT, 0};
+      (void)::poll(&p, 1, 2);
+    }
+    ++tx_dropped_;
+    return kCanErrWouldBlock;
+  }
+
+  int receive_any(CanFdFrame& frame) noexcept override {
+    if (fd_ < 0) return kCanErrClosed;
+    for (;;) {
+      std::uint8_t buf[CANFD_MTU];
+      const ssize_t n = ::read(fd_, buf, sizeof buf);
+      if (n < 0) {
+        if (errno == EAGAIN || errno == EWOULDBLOCK) return kCanErrWouldBlock;
+        if (errno == EINTR) continue;
+        error_ = sys_error("socketcan: read");
+        return kCanErrIo;
+      }
+      if (decode_any(buf, static_cast<std::size_t>(n), &frame)) return kCanOk;
+    }
+  }
+
+  int receive_many_any(CanFdFrame* frames, int max) noexcept override {
+    if (fd_ < 0) return kCanErrClosed;
+    constexpr int kBatch = 64;
+    canfd_frame cf[kBatch];
+    iovec iov[kBatch];
+    mmsghdr msgs[kBatch];
+    int k = 0;
+    while (k < max) {
+      const int want = std::min(kBatch, max - k);
+      for (int i = 0; i < want; ++i) {
+        iov[i] = iovec{&cf[i], sizeof cf[i]};
+        msgs[i] = mmsghdr{};
+        msgs[i].msg_hdr.msg_iov = &iov[i];
+        msgs[i].msg_hdr.msg_iovlen = 1;
+      }
+      const int n = ::recvmmsg(fd_, msgs, static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
+      if (n < 0) {
+        if (errno == EAGAIN || errno == EWOULDBLOCK) break;
+        if (errno == EINTR) continue;
+        error_ = sys_error("socketcan: recvmmsg");
+        return k > 0 ? k : kCanErrIo;
+      }
+      for (int i = 0; i < n; ++i) {
+        if (decode_any(reinterpret_cast<const std::uint8_t*>(&cf[i]), msgs[i].msg_len, &frames[k])) ++k;
+      }
+      if (n < want) break;  // the queue is empty
+    }
+    return k;
   }
 
   int receive(CanFrame& frame) noexcept override {
@@ -427,6 +568,31 @@ int LinuxCanPort::receive_many(CanFrame* frames, int max) noexcept {
     ++k;
   }
   return k;
+}
+
+int LinuxCanPort::receive_many_any(CanFdFrame* frames, int max) noexcept {
+  int k = 0;
+  while (k < max) {
+    const int rc = receive_any(frames[k]);
+    if (rc == kCanErrWouldBlock) break;
+    if (rc != kCanOk) return k > 0 ? k : rc;
+    ++k;
+  }
+  return k;
+}
+
+int LinuxCanPort::receive_many_any_wait(CanFdFrame* frames, int max, int timeout_ms) noexcept {
+  if (max <= 0) return 0;
+  const int k = receive_many_any(frames, max);
+  if (k != 0) return k;
+  pollfd p{fd(), POLLIN, 0};
+  const int pr = ::poll(&p, 1, timeout_ms);
+  if (pr < 0 && errno != EINTR) {
+    error_ = sys_error("poll");
+    return kCanErrIo;
+  }
+  if (pr <= 0) return 0;
+  return receive_many_any(frames, max);
 }
 
 int LinuxCanPort::receive_many_wait(CanFrame* frames, int max, int timeout_ms) noexcept {

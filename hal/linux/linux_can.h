@@ -8,7 +8,9 @@
 //                        $IMUFORGE_VCAN_DIR/<name>/ (default /tmp/imuforge-vcan/<name>/); a frame is sent
 //                        to every announced endpoint but itself whose acceptance filter (set_can_filter,
 //                        announced in the same file) takes its id. Same 16-byte frame layout as SocketCAN's
-//                        struct can_frame (can_id with the EFF flag bit 31, dlc, 3 pad, 8 data).
+//                        struct can_frame (can_id with the EFF flag bit 31, dlc, 3 pad, 8 data); CAN FD
+//                        frames as the 72-byte struct canfd_frame (flags CANFD_FDF|CANFD_BRS, 64 data).
+//                        The virtual bus always carries FD; a classic receive() skips FD datagrams.
 //                        Unix datagram sockets were rejected: their queue is 10 datagrams by default.
 // Every system call's result is checked; failures are reported as CanError codes plus a message.
 #pragma once
@@ -34,6 +36,16 @@ class LinuxCanPort : public CanPort {
   virtual int receive_many(CanFrame* frames, int max) noexcept;
   // Blocks up to timeout_ms for the first frame, then takes what else is queued (receive_many).
   int receive_many_wait(CanFrame* frames, int max, int timeout_ms) noexcept;
+  // True if send_fd() can put CAN FD frames on this bus (virtual bus: always; SocketCAN: opened with
+  // want_fd on an interface whose MTU is CANFD_MTU).
+  bool fd_enabled() const noexcept { return fd_enabled_; }
+  // One frame of either kind (CanFdFrame::fd tells which). The FD-aware counterpart of receive(),
+  // for the host's stream reader; kCanOk, kCanErrWouldBlock or an error.
+  virtual int receive_any(CanFdFrame& frame) noexcept = 0;
+  // Up to `max` frames of either kind already queued (as receive_many); how many, or a negative error.
+  virtual int receive_many_any(CanFdFrame* frames, int max) noexcept;
+  // Blocks up to timeout_ms for the first frame of either kind, then takes what else is queued.
+  int receive_many_any_wait(CanFdFrame* frames, int max, int timeout_ms) noexcept;
   // Text of the last error (system call and errno text).
   const std::string& last_error() const noexcept { return error_; }
   std::uint64_t tx_dropped() const noexcept { return tx_dropped_; }
@@ -41,6 +53,7 @@ class LinuxCanPort : public CanPort {
  protected:
   std::string error_;
   std::uint64_t tx_dropped_ = 0;
+  bool fd_enabled_ = false;
 };
 
 struct BusSpec {

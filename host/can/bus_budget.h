@@ -14,13 +14,15 @@
 #include <string>
 #include <vector>
 
+#include "firmware/can_node/protocol.h"
+
 namespace imuforge::can {
 
 // Above this fraction of a bus's time the runner refuses to start (docs/can-protocol.md): the rest is
 // for ISO-TP commands, flashing several units and error frames / retransmissions.
 constexpr double kDefaultLoadLimit = 0.70;
-// Samples in one CAN FD stream frame (docs/can-protocol.md "CAN FD stream frame").
-constexpr int kFdSamplesPerFrame = 4;
+// Samples in one CAN FD stream frame (docs/can-protocol.md "CAN FD stream frame"; the node's number).
+constexpr int kFdSamplesPerFrame = static_cast<int>(proto::kFdSamplesPerFrame);
 
 struct BusTiming {
   bool fd = false;                     // CAN FD with bit-rate switch

@@ -34,6 +34,7 @@ const char* status_name(int s) {
     case proto::kStNoKey: return "device has no provisioned key";
     case proto::kStWrongDevice: return "table is for another device (serial mismatch)";
     case proto::kStSeqMismatch: return "table_sequence differs from the write's sequence number";
+    case proto::kStFdUnsupported: return "the node cannot send CAN FD (classic controller or bus)";
     default: return "unknown status";
   }
 }
@@ -68,6 +69,8 @@ class Client::Transport {
   virtual void set_decoder(std::unique_ptr<StreamDecoder> d) = 0;  // nullptr: stop decoding
   virtual StreamCounters counters() const = 0;
   virtual void flush_decoder() = 0;
+  // The host side can receive CAN FD frames (virtual bus; SocketCAN with MTU CANFD_MTU).
+  virtual bool fd_capable() const = 0;
 };
 
 namespace {
@@ -83,8 +86,12 @@ class StreamSink {
     std::lock_guard<std::mutex> lk(mu_);
     return dec_ ? dec_->on_frame(f) : false;
   }
+  bool feed(const hal::CanFdFrame& f) {
+    std::lock_guard<std::mutex> lk(mu_);
+    return dec_ ? dec_->on_frame(f) : false;
+  }
   // A batch under one lock (the SocketCAN receive thread reads frames in batches).
-  void feed(const hal::CanFrame* f, int n) {
+  void feed(const hal::CanFdFrame* f, int n) {
     std::lock_guard<std::mutex> lk(mu_);
     if (!dec_) return;
     for (int i = 0; i < n; ++i) (void)dec_->on_frame(f[i]);
@@ -159,6 +166,7 @@ class VirtualTransport final : public Client::Transport {
   void set_decoder(std::unique_ptr<StreamDecoder> d) override { sink_.set(std::move(d)); }
   StreamCounters counters() const override { return sink_.counters(); }
   void flush_decoder() override { sink_.flush(); }
+  bool fd_capable() const override { return port_->fd_enabled(); }
 
  private:
   std::uint64_t now_us() const {
@@ -167,21 +175,35 @@ class VirtualTransport final : public Client::Transport {
   }
   void run() {
     while (!stop_) {
-      hal::CanFrame f;
-      const int rc = port_->receive_wait(f, 1);
+      // Either kind of frame: the FD stream shares the socket with the classic ISO-TP responses.
+      const int n = port_->receive_many_any_wait(batch_, kBatch, 1);
       std::lock_guard<std::mutex> lk(mu_);
-      if (rc == hal::kCanOk && !sink_.feed(f)) fw::isotp_on_frame(link_, f, now_us());
-      if (rc != hal::kCanOk && rc != hal::kCanErrWouldBlock) io_error_ = true;
-      fw::isotp_poll(link_, now_us());
-      if (fw::isotp_rx_ready(link_)) {
-        responses_.emplace_back(link_.rx_buf, link_.rx_buf + link_.rx_len);
-        fw::isotp_rx_release(link_);
+      for (int i = 0; i < n; ++i) {
+        const hal::CanFdFrame& a = batch_[i];
+        if (sink_.feed(a) || a.fd) continue;
+        hal::CanFrame f;
+        f.id = a.id;
+        f.extended = a.extended;
+        f.len = a.len;
+        std::memcpy(f.data, a.data, a.len);
+        fw::isotp_on_frame(link_, f, now_us());
+        take_response();  // before the next frame: a second response in the same batch must find room
       }
+      if (n < 0) io_error_ = true;
+      fw::isotp_poll(link_, now_us());
+      take_response();
       cv_.notify_all();
     }
   }
+  void take_response() {
+    if (!fw::isotp_rx_ready(link_)) return;
+    responses_.emplace_back(link_.rx_buf, link_.rx_buf + link_.rx_len);
+    fw::isotp_rx_release(link_);
+  }
 
+  static constexpr int kBatch = 64;
   std::unique_ptr<hal::LinuxCanPort> port_;
+  hal::CanFdFrame batch_[kBatch];
   std::vector<std::uint8_t> rx_, tx_;
   fw::IsotpLink link_;
   std::mutex mu_;
@@ -202,10 +224,11 @@ class SocketCanTransport final : public Client::Transport {
     if (!isotp_.open(ifname, proto::request_id(node, ext), proto::response_id(node, ext), ext, 0, 0, &err)) {
       throw Error(kErrTransport, "CAN bus " + spec + ": " + err);
     }
-    raw_ = hal::open_can_port(spec, &err);
+    // want_fd: FD frames are received if the interface carries them (MTU 72), else the port is classic.
+    raw_ = hal::open_can_port(spec, &err, /*want_fd=*/true);
     if (!raw_) throw Error(kErrTransport, "CAN bus " + spec + ": " + err);
     std::vector<std::uint32_t> ids;
-    for (std::uint8_t p = 0; p < proto::kPartCount; ++p) ids.push_back(proto::stream_id(node, p, ext));
+    for (std::uint8_t p = 0; p <= proto::kPartFd; ++p) ids.push_back(proto::stream_id(node, p, ext));
     if (!hal::set_can_filter(*raw_, ids, ext, &err)) throw Error(kErrTransport, "CAN bus " + spec + ": " + err);
     thread_ = std::thread([this] { run(); });
   }
@@ -229,13 +252,14 @@ class SocketCanTransport final : public Client::Transport {
   void set_decoder(std::unique_ptr<StreamDecoder> d) override { sink_.set(std::move(d)); }
   StreamCounters counters() const override { return sink_.counters(); }
   void flush_decoder() override { sink_.flush(); }
+  bool fd_capable() const override { return raw_->fd_enabled(); }
 
  private:
   void run() {
-    hal::CanFrame batch[64];
+    std::vector<hal::CanFdFrame> batch(64);
     while (!stop_.load(std::memory_order_relaxed)) {
-      const int n = raw_->receive_many_wait(batch, 64, 5);
-      if (n > 0) sink_.feed(batch, n);
+      const int n = raw_->receive_many_any_wait(batch.data(), 64, 5);
+      if (n > 0) sink_.feed(batch.data(), n);
     }
   }
   hal::KernelIsotp isotp_;
@@ -282,7 +306,7 @@ std::unique_ptr<Client> Client::connect(const std::string& bus_spec, std::uint8_
     // Only this node's responses and stream: with N units on one virtual bus, every client reading
     // every node's stream is what starved the command responses (docs/eol.md "Multi-unit stations").
     std::vector<std::uint32_t> ids{proto::response_id(node_id, opt.extended_ids)};
-    for (std::uint8_t p = 0; p < proto::kPartCount; ++p) ids.push_back(proto::stream_id(node_id, p, opt.extended_ids));
+    for (std::uint8_t p = 0; p <= proto::kPartFd; ++p) ids.push_back(proto::stream_id(node_id, p, opt.extended_ids));
     if (!hal::set_can_filter(*port, ids, opt.extended_ids, &err)) throw Error(kErrTransport, "CAN bus " + bus_spec + ": " + err);
     t = std::make_unique<VirtualTransport>(std::move(port), node_id, opt.extended_ids);
   } else {
@@ -342,8 +366,9 @@ Identity Client::identify() {
   id.table_crc32 = fw::load_le32(r.data() + 29);
   id.table_len = fw::load_le32(r.data() + 33);
   id.node_id = r[37];
-  id.extended_ids = (r[38] & 1u) != 0;
-  id.key_provisioned = (r[38] & 2u) != 0;
+  id.extended_ids = (r[38] & proto::kIdExtendedIds) != 0;
+  id.key_provisioned = (r[38] & proto::kIdKeyProvisioned) != 0;
+  id.can_fd = (r[38] & proto::kIdCanFd) != 0;
   return id;
 }
 
@@ -358,15 +383,22 @@ NodeStatus Client::status() {
   s.active_slot = static_cast<std::int8_t>(r[44]);
   s.staged_slot = static_cast<std::int8_t>(r[45]);
   s.streaming = r[46] != 0;
+  s.stream_fd = r[46] == 2;
   s.channels = r[47];
   s.rate_hz = fw::load_le16(r.data() + 48);
   s.samples_fifo_overflow = fw::load_le32(r.data() + 50);
   return s;
 }
 
-void Client::start_stream(std::uint16_t rate_hz, std::uint8_t channels, StreamDecoder::Callback cb) {
-  t_->set_decoder(std::make_unique<StreamDecoder>(node_, opt_.extended_ids, channels, std::move(cb)));
+void Client::start_stream(std::uint16_t rate_hz, std::uint8_t channels, StreamDecoder::Callback cb, bool fd) {
+  if (fd && !t_->fd_capable()) {
+    throw Error(kErrTransport, "CAN FD stream asked for, but this host's CAN port does not carry CAN FD "
+                               "(SocketCAN: the interface MTU must be 72, `ip link set <if> mtu 72`)");
+  }
+  if (fd && rate_hz == 0) throw Error(kErrProtocol, "CAN FD stream: rate must be > 0");
+  t_->set_decoder(std::make_unique<StreamDecoder>(node_, opt_.extended_ids, channels, std::move(cb), fd, rate_hz));
   std::vector<std::uint8_t> req{proto::kCmdStreamStart, 0, 0, channels};
+  if (fd) req.push_back(proto::kStreamFlagFd);  // without it the request stays the 4-byte classic one
   fw::store_le16(req.data() + 1, rate_hz);
   try {
     request(req);

@@ -3,6 +3,7 @@
 //   auto c = imuforge::can::Client::connect("virtual:bench1", 1);   // or "socketcan:vcan0"
 //   Identity id = c->identify();
 //   c->start_stream(1000, proto::kChAll, [](const StreamSample& s) { ... });  // client thread
+//   (start_stream(..., /*fd=*/true): the CAN FD stream frame, 4 samples per 64-byte frame)
 //   ... c->stream_counters() ... c->stop_stream();
 //   c->flash_table(blob, seq, key);    // write + commit + verify (identify + read-back)
 //
@@ -57,6 +58,7 @@ struct Identity {
   std::uint8_t node_id = 0;
   bool extended_ids = false;
   bool key_provisioned = false;
+  bool can_fd = false;  // the node can stream CAN FD frames (proto::kIdCanFd)
 };
 
 struct NodeStatus {
@@ -65,6 +67,7 @@ struct NodeStatus {
                 commands_rejected = 0, auth_failures = 0, boots = 0;
   int active_slot = -1, staged_slot = -1;
   bool streaming = false;
+  bool stream_fd = false;  // streaming CAN FD frames
   std::uint8_t channels = 0;
   std::uint16_t rate_hz = 0;
   std::uint32_t samples_fifo_overflow = 0;  // samples the node's FIFO dropped (the host sees them lost)
@@ -91,7 +94,9 @@ class Client {
 
   Identity identify();
   NodeStatus status();
-  void start_stream(std::uint16_t rate_hz, std::uint8_t channels, StreamDecoder::Callback cb);
+  // fd: CAN FD stream frames, 4 samples each (docs/can-protocol.md); throws kErrTransport if this
+  // host's port cannot receive FD, and the node refuses with proto::kStFdUnsupported if it cannot send.
+  void start_stream(std::uint16_t rate_hz, std::uint8_t channels, StreamDecoder::Callback cb, bool fd = false);
   // Stops the stream, waits `drain_ms` for frames in flight, settles the counters. Returns node's
   // samples_sent.
   std::uint32_t stop_stream(int drain_ms = 50);

@@ -48,6 +48,8 @@ int run_can(int argc, char** argv) {
   c_stream->add_option("--channels", channels, "1 accel, 2 gyro, 4 temp (sum)")->check(CLI::Range(1, 7))->capture_default_str();
   c_stream->add_option("--seconds", seconds, "duration")->capture_default_str();
   c_stream->add_option("--out", out, "write samples as CSV");
+  bool stream_fd = false;
+  c_stream->add_flag("--fd", stream_fd, "CAN FD stream frames, 4 samples per 64-byte frame (docs/can-protocol.md)");
   auto* c_read = app.add_subcommand("read-table", "read the active coefficient table");
   c_read->add_option("--out", out, "output file")->required();
   auto* c_flash = app.add_subcommand("flash", "write, commit and verify a coefficient table");
@@ -117,8 +119,9 @@ int run_can(int argc, char** argv) {
     auto c = can::Client::connect(bus, static_cast<std::uint8_t>(node), o);
     if (c_id->parsed()) {
       const auto id = c->identify();
-      std::printf("serial %" PRIu64 "\nfirmware %s\nnode %u (%s ids)\nkey %s\n", id.serial, id.fw_version.c_str(),
-                  id.node_id, id.extended_ids ? "29-bit" : "11-bit", id.key_provisioned ? "provisioned" : "MISSING");
+      std::printf("serial %" PRIu64 "\nfirmware %s\nnode %u (%s ids)\nkey %s\ncan_fd %s\n", id.serial, id.fw_version.c_str(),
+                  id.node_id, id.extended_ids ? "29-bit" : "11-bit", id.key_provisioned ? "provisioned" : "MISSING",
+                  id.can_fd ? "yes" : "no");
       if (id.table_present) {
         std::printf("table seq %u, %u bytes, crc32 0x%08x\n", id.table_seq, id.table_len, id.table_crc32);
       } else {
@@ -132,7 +135,7 @@ int run_can(int argc, char** argv) {
                   "samples_fifo_overflow %u\n",
                   s.uptime_ms, s.boots, s.samples_sent, s.stream_frames_tx, s.stream_frames_dropped, s.bus_off_events,
                   s.isotp_rx_errors, s.isotp_tx_errors, s.commands_ok, s.commands_rejected, s.auth_failures,
-                  s.active_slot, s.staged_slot, s.streaming ? 1 : 0, s.rate_hz, s.channels, s.samples_fifo_overflow);
+                  s.active_slot, s.staged_slot, s.streaming ? (s.stream_fd ? 2 : 1) : 0, s.rate_hz, s.channels, s.samples_fifo_overflow);
     } else if (c_stream->parsed()) {
       std::ofstream csv;
       if (!out.empty()) {
@@ -151,13 +154,14 @@ int run_can(int argc, char** argv) {
                         csv << s.seq << ',' << s.t_us << ',' << s.accel_counts[0] << ',' << s.accel_counts[1] << ','
                             << s.accel_counts[2] << ',' << s.gyro_counts[0] << ',' << s.gyro_counts[1] << ','
                             << s.gyro_counts[2] << ',' << s.temp_cdegC << '\n';
-                      });
+                      },
+                      stream_fd);
       std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
       c->stop_stream();
       const auto k = c->stream_counters();
       std::printf("received %" PRIu64 " lost %" PRIu64 " incomplete %" PRIu64 " duplicated %" PRIu64
-                  " reordered %" PRIu64 " frames %" PRIu64 " frames_lost %" PRIu64 "\n",
-                  k.received, k.lost, k.incomplete, k.duplicated, k.reordered, k.frames, k.frames_lost);
+                  " reordered %" PRIu64 " frames %" PRIu64 " frames_lost %" PRIu64 " malformed %" PRIu64 "\n",
+                  k.received, k.lost, k.incomplete, k.duplicated, k.reordered, k.frames, k.frames_lost, k.malformed);
     } else if (c_read->parsed()) {
       std::uint32_t s = 0;
       const auto t = c->read_table(&s);

@@ -1,6 +1,8 @@
-// Reassembles stream samples from the three stream frames and detects lost, duplicated and reordered
-// frames by the 16-bit sample sequence counter (docs/can-protocol.md, "Sample stream").
-// Pure logic, no I/O: fed by the client's receive thread and by the tests directly.
+// Reassembles stream samples from the three classic stream frames, or unpacks the CAN FD stream frame
+// (4 samples per 64-byte frame), and detects lost, duplicated and reordered samples by the 16-bit sample
+// sequence counter (docs/can-protocol.md, "Sample stream", "CAN FD stream frame"). Both formats feed
+// the same window and counters, so a lost FD frame shows as a gap of its `count` samples.
+// Pure logic, no I/O: fed by the client's receive thread, the tests and the fuzzer directly.
 #pragma once
 #include <array>
 #include <cstdint>
@@ -26,15 +28,31 @@ struct StreamCounters {
   std::uint64_t incomplete = 0;    // samples of which only some frames arrived
   std::uint64_t duplicated = 0;    // frames received twice (same sample, same part)
   std::uint64_t reordered = 0;     // frames that arrived after a frame of a later sample
-  std::uint64_t frames_lost = 0;   // frames missing: 3*lost-ish + missing parts of incomplete samples
+  std::uint64_t frames_lost = 0;   // frames missing: classic 3*lost-ish + missing parts of incomplete
+                                   // samples; FD: ceil(gap / 4) per gap in the counter
+  // Stream frames of this node rejected as malformed (never decoded, never delivered). FD only: the
+  // classic frames have no field that can be inconsistent.
+  std::uint64_t malformed = 0;           // sum of the three below
+  std::uint64_t malformed_count = 0;     // FD count 0 or above 4
+  std::uint64_t malformed_short = 0;     // FD frame shorter than its header + count samples
+  std::uint64_t malformed_format = 0;    // classic frame on the FD id, or channels other than asked
 };
 
 class StreamDecoder {
  public:
   using Callback = std::function<void(const StreamSample&)>;
+  // Classic stream: three frames per sample.
   StreamDecoder(std::uint8_t node_id, bool extended, std::uint8_t channels, Callback cb);
-  // Returns true if the frame was one of this node's stream frames.
+  // fd: the CAN FD stream frame, whose later samples' t_us follow from the node's sample period
+  // 1000000 / rate_hz (throws std::invalid_argument if fd and rate_hz is 0).
+  StreamDecoder(std::uint8_t node_id, bool extended, std::uint8_t channels, Callback cb, bool fd,
+                std::uint16_t rate_hz);
+  // Returns true if the frame was one of this node's stream frames (also a rejected or ignored one:
+  // classic frames during an FD stream and FD frames during a classic one are ignored).
   bool on_frame(const hal::CanFrame& f);
+  bool on_frame(const hal::CanFdFrame& f);
+  // Why the last malformed frame was rejected ("" if none was).
+  const char* last_reject_reason() const { return reject_; }
   // Settles every pending sample (end of a stream): incomplete ones are counted.
   void flush();
   const StreamCounters& counters() const { return k_; }
@@ -48,11 +66,22 @@ class StreamDecoder {
     StreamSample s;
   };
   void retire(Slot& s);
+  // Claims sample s16 for part bits `bits`: extends the counter, marks gaps lost, un-counts a sample
+  // that was only late. Returns its slot, or nullptr (duplicate, too old, evicted). *late: it filled a
+  // sample counted lost.
+  Slot* place(std::uint16_t s16, std::uint8_t bits, bool* late);
+  void deliver(Slot& s);
+  std::uint64_t extend_t(std::uint32_t t32);
+  bool on_fd(const hal::CanFdFrame& f);
+  void reject(std::uint64_t& counter, const char* why);
   std::uint8_t node_;
   bool ext_;
   std::uint8_t channels_;
   unsigned nparts_;
   Callback cb_;
+  bool fd_ = false;
+  std::uint32_t period_us_ = 0;
+  const char* reject_ = "";
   bool started_ = false;
   std::int64_t highest_ = -1;
   std::uint64_t t_hi_ = 0;   // timestamp extension state

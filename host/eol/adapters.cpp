@@ -136,7 +136,8 @@ class CanDevice final : public Device {
                             if (q.size() > 200000) overflow = true;
                             else q.push_back(s);
                             cv.notify_one();
-                          });
+                          },
+                          st_.can_fd);
     struct Stopper {
       can::Client* c;
       bool on = true;

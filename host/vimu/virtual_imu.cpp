@@ -49,6 +49,12 @@ class VirtualImu::Port final : public hal::CanPort {
     if (n != 0u && ++count_ % n == 0u) return hal::kCanOk;  // lost on the wire: the sender cannot tell
     return inner_.send(f);
   }
+  int send_fd(const hal::CanFdFrame& f) noexcept override {
+    if (owner_.bus_off_.load()) return hal::kCanErrBusOff;
+    const std::uint32_t n = owner_.drop_every_.load();
+    if (n != 0u && ++count_ % n == 0u) return hal::kCanOk;
+    return inner_.send_fd(f);
+  }
   int receive(hal::CanFrame& f) noexcept override { return inner_.receive(f); }
 
  private:
@@ -113,12 +119,14 @@ VirtualImu::~VirtualImu() { stop(); }
 void VirtualImu::start() {
   if (running_.load()) return;
   std::string err;
-  impl_->linux_port = hal::open_can_port(cfg_.bus, &err);
+  impl_->linux_port = hal::open_can_port(cfg_.bus, &err, /*want_fd=*/cfg_.can_fd);
   if (!impl_->linux_port) throw std::runtime_error("vimu: cannot open CAN bus '" + cfg_.bus + "': " + err);
   // The node's hardware acceptance filter: its request id only (the other nodes' streams never reach it).
   if (!hal::set_can_filter(*impl_->linux_port, {proto::request_id(cfg_.node_id, cfg_.extended_ids)}, cfg_.extended_ids, &err))
     throw std::runtime_error("vimu: CAN bus '" + cfg_.bus + "': " + err);
   impl_->port = std::make_unique<Port>(*impl_->linux_port, *this);
+  // The node offers FD streaming iff its port carries FD (virtual bus; SocketCAN with MTU 72).
+  impl_->node_cfg.can_fd = cfg_.can_fd && impl_->linux_port->fd_enabled();
   impl_->sensor = std::make_unique<SimSensor>(cfg_.truth);
   stop_.store(false);
   running_.store(true);

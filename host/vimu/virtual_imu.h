@@ -52,6 +52,9 @@ struct VirtualImuConfig {
   // process (worse: one inside an emulated VM on a loaded host) can be descheduled for seconds, which a
   // real node with its own CPU is not; beyond this the FIFO overflows and the loss is counted.
   std::uint16_t fifo_depth_samples = 5000;
+  // An FD-capable controller: the node streams CAN FD when the host asks and the bus carries it
+  // (virtual bus always, SocketCAN with MTU 72). false: a classic-only part (refuses FD streams).
+  bool can_fd = true;
 };
 
 class VirtualImu {

@@ -30,6 +30,8 @@ int main(int argc, char** argv) {
   app.add_option("--duration-s", duration_s, "exit after this many seconds (0: until SIGINT/SIGTERM)");
   app.add_option("--fifo-depth", cfg.fifo_depth_samples,
                  "depth of the node's sample FIFO: samples kept while the node runs late (default 5000)");
+  bool classic_only = false;
+  app.add_flag("--classic-only", classic_only, "a classic CAN controller: refuse CAN FD streams");
   unsigned bs = cfg.isotp_block_size;
   app.add_option("--isotp-bs", bs, "ISO-TP block size announced to the host")->check(CLI::Range(0, 255));
   try {
@@ -38,6 +40,7 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   cfg.node_id = static_cast<std::uint8_t>(node);
+  cfg.can_fd = !classic_only;
   cfg.isotp_block_size = static_cast<std::uint8_t>(bs);
   if (!key_hex.empty()) {
     try {
