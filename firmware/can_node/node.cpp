@@ -76,6 +76,7 @@ void pack_fd_sample(CanNode& n, const hal::ImuRawSample& s, std::uint64_t t_us) 
     store_le32(f.data + 4, static_cast<std::uint32_t>(t_us));
     store_le16s(f.data + 8, s.temp_cdegC);
   }
+  if (n.fd_count > 0u) store_le16s(f.data + kFdTempTailOffset + 2u * (n.fd_count - 1u), s.temp_cdegC);
   std::uint8_t* p = f.data + kFdHeaderBytes + kFdSampleBytes * n.fd_count;
   // Channels not streamed read as 0, so a frame never leaks what the host did not ask for.
   const bool acc = (n.channels & kChAccel) != 0u, gyr = (n.channels & kChGyro) != 0u;

@@ -41,8 +41,10 @@ constexpr std::uint16_t kMaxRateHz = 2000;
 constexpr std::uint8_t kStreamFlagFd = 0x01u;  // CAN FD stream frames
 
 // CAN FD stream frame (stream_id part kPartFd, FDF+BRS, always 64 bytes), little endian:
-//   seq u16 (first sample) | count u8 (1..4) | channels u8 | t_us u32 (first sample) | temp i16 (first
-//   sample, 0.01 degC) | count x { ax ay az gx gy gz i16 } | 0xCC padding to 64 bytes.
+//   0-1 seq u16 (first sample) | 2 count u8 (1..4) | 3 channels u8 | 4-7 t_us u32 (first sample) |
+//   8-9 temp i16 of sample 0 (0.01 degC) | 10 + 12i: sample i { ax ay az gx gy gz i16 } |
+//   58 + 2(i-1): temp i16 of sample i = 1..3 | 0xCC in every byte of a sample the frame does not hold.
+// Every sample keeps its own temperature, so an FD stream decodes to exactly the classic samples.
 // Sample i has seq + i and t_us + i * period_us, period_us = 1000000 / rate_hz (integer division, the
 // node's own sample period). A frame with count < 4 ends a run of consecutive samples: the last frame
 // before a stop, a reboot or a sequence gap (sensor read error, FIFO overflow).
@@ -51,7 +53,14 @@ constexpr unsigned kFdFrameBytes = 64;
 constexpr unsigned kFdHeaderBytes = 10;
 constexpr unsigned kFdSampleBytes = 12;
 constexpr std::uint8_t kFdPadByte = 0xCC;
-static_assert(kFdHeaderBytes + kFdSamplesPerFrame * kFdSampleBytes <= kFdFrameBytes, "FD stream frame layout");
+constexpr unsigned kFdTempTailOffset = 58;  // temp of samples 1..3
+// Bytes a frame of `count` samples needs (1..4); the node always sends kFdFrameBytes.
+constexpr unsigned fd_frame_min_len(unsigned count) noexcept {
+  return count <= 1u ? kFdHeaderBytes + kFdSampleBytes : kFdTempTailOffset + 2u * (count - 1u);
+}
+static_assert(kFdHeaderBytes + kFdSamplesPerFrame * kFdSampleBytes == kFdTempTailOffset &&
+                  kFdTempTailOffset + 2u * (kFdSamplesPerFrame - 1u) == kFdFrameBytes,
+              "FD stream frame layout");
 
 // ---- commands (ISO-TP payloads) ------------------------------------------------------------------
 // Request : cmd u8 | arguments

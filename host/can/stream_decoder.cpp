@@ -159,7 +159,7 @@ bool StreamDecoder::on_fd(const hal::CanFdFrame& f) {
     reject(k_.malformed_count, "CAN FD stream frame with count 0 or above 4");
     return true;
   }
-  if (f.len < proto::kFdHeaderBytes + proto::kFdSampleBytes * count) {
+  if (f.len < proto::fd_frame_min_len(count)) {
     reject(k_.malformed_short, "CAN FD stream frame shorter than its header + count samples");
     return true;
   }
@@ -187,9 +187,7 @@ bool StreamDecoder::on_fd(const hal::CanFdFrame& f) {
       s.s.accel_counts[j] = fw::load_le16s(p + 2 * j);
       s.s.gyro_counts[j] = fw::load_le16s(p + 6 + 2 * j);
     }
-    // The frame carries the first sample's temperature; a 4-sample frame spans at most 4 ms at 1 kHz,
-    // far below the sensor's thermal time constant.
-    s.s.temp_cdegC = temp;
+    s.s.temp_cdegC = i == 0 ? temp : fw::load_le16s(f.data + proto::kFdTempTailOffset + 2 * (i - 1));
     s.s.t_us = t0 + static_cast<std::uint64_t>(i) * period_us_;
     deliver(s);
   }

@@ -18,7 +18,8 @@ class RampSensor final : public imuforge::hal::Sensor {
       s.accel_counts[i] = static_cast<std::int16_t>(v + i);
       s.gyro_counts[i] = static_cast<std::int16_t>(-v - i);
     }
-    s.temp_cdegC = 2500;
+    // Changes every sample (1 kHz and slower), so a test sees whose temperature a frame carries.
+    s.temp_cdegC = static_cast<std::int16_t>(2500 + static_cast<int>(t_us / 1000u % 100u));
     return fail ? imuforge::hal::kSensorErrIo : imuforge::hal::kSensorOk;
   }
   bool fail = false;

@@ -42,6 +42,7 @@ std::uint8_t cmd1(std::uint8_t cmd) {
 
 // What RampSensor returns at t_us (tests/can/node_harness.h), as the node would pack it.
 std::int16_t ramp(std::uint64_t t_us) { return static_cast<std::int16_t>(t_us / 1000u); }
+std::int16_t ramp_temp(std::uint64_t t_us) { return static_cast<std::int16_t>(2500 + static_cast<int>(t_us / 1000u % 100u)); }
 
 struct FdLog {
   unsigned frames = 0, samples = 0, partial = 0, bad_layout = 0, bad_values = 0, seq_breaks = 0;
@@ -68,7 +69,7 @@ void drain(FdLog& log, std::uint8_t channels, std::uint32_t period_us) {
     if (log.next_seq >= 0 && seq != log.next_seq) ++log.seq_breaks;
     log.next_seq = (seq + static_cast<long>(count)) % 65536;
     const std::uint32_t t0 = load_le32(f.data + 4);
-    if (load_le16s(f.data + 8) != 2500) ++log.bad_values;
+    if (load_le16s(f.data + 8) != ramp_temp(t0)) ++log.bad_values;
     for (unsigned i = 0; i < count; ++i) {
       const std::uint8_t* p = f.data + proto::kFdHeaderBytes + proto::kFdSampleBytes * i;
       const std::int16_t v = ramp(t0 + i * period_us);
@@ -78,7 +79,14 @@ void drain(FdLog& log, std::uint8_t channels, std::uint32_t period_us) {
         if (load_le16s(p + 2 * a) != ax || load_le16s(p + 6 + 2 * a) != gx) ++log.bad_values;
       }
     }
-    for (unsigned b = proto::kFdHeaderBytes + proto::kFdSampleBytes * count; b < proto::kFdFrameBytes; ++b) {
+    for (unsigned i = 1; i < count; ++i) {
+      if (load_le16s(f.data + proto::kFdTempTailOffset + 2 * (i - 1)) != ramp_temp(t0 + i * period_us)) ++log.bad_values;
+    }
+    // Bytes of samples the frame does not hold: padding.
+    for (unsigned b = proto::kFdHeaderBytes + proto::kFdSampleBytes * count; b < proto::kFdTempTailOffset; ++b) {
+      if (f.data[b] != proto::kFdPadByte) ++log.bad_layout;
+    }
+    for (unsigned b = proto::kFdTempTailOffset + 2 * (count - 1); b < proto::kFdFrameBytes; ++b) {
       if (f.data[b] != proto::kFdPadByte) ++log.bad_layout;
     }
     log.samples += count;
