@@ -35,6 +35,7 @@ int run_demo_cmd(int argc, char** argv) {
   app.add_option("--dead-slot", o.dead_slots, "slot (1-based) whose node never answers; repeatable");
   app.add_option("--outlier-slot", o.outlier_slots, "slot (1-based) whose part has accel.scale.x 0.015 off the others");
   app.add_option("--threads", o.threads, "finish threads of a multi-unit run (default: the CPUs)");
+  app.add_flag("--can-fd", o.can_fd, "stream CAN FD frames, 4 samples per 64-byte frame (station can.fd, docs/can-protocol.md)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -226,7 +226,7 @@ int run_demo(const DemoOptions& opt_in) {
                    {"timeout_s", 1.0}, {"retries", 3}}},
         {"chamber", {{"name", "chamber-1"}, {"transport", "tcp"}, {"host", host}, {"port", port},
                      {"map", "imuforge-chamber.json"}, {"timeout_s", 1.0}, {"retries", 3}}}}},
-      {"can", {{"bus", bus}, {"node_id", 1}, {"stream_rate_hz", opt.stream_rate_hz}}},
+      {"can", {{"bus", bus}, {"node_id", 1}, {"stream_rate_hz", opt.stream_rate_hz}, {"fd", opt.can_fd}}},
       {"records", {{"db", (out / "records.sqlite").string()}}},
       {"settle", {{"temp_window_s", 180}, {"temp_slope_C_per_min", 0.1}, {"temp_band_C", 3}, {"table_timeout_s", 1200},
                   {"temp_timeout_s", 7200}}},

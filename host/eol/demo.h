@@ -19,6 +19,7 @@ struct DemoOptions {
   // (demo_time_scale()); true: time_scale as given (the user chose it).
   bool time_scale_fixed = false;
   double stream_rate_hz = 10.0;             // samples per SIMULATED second
+  bool can_fd = false;                      // the station streams CAN FD frames (station can.fd)
   bool early_stop = true;
   bool quiet = false;
   // Multi-unit station (slots > 1): bench-sim serves `slots` virtual IMUs (nodes 1..slots, serials

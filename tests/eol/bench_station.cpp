@@ -9,6 +9,7 @@
 // the end of the row (the machines are shared: a figure without the load is not comparable).
 //   eol_bench_station [N list, comma separated = 1,4,8,16] [time_scale=100] [rate_hz=10] [out_dir=/tmp/imuforge-station]
 //                     [campaign=docs/examples/campaign-eol.json] [model=docs/examples/model-thermal.json]
+//                     [classic|fd = classic: the units stream CAN FD frames, station can.fd]
 // time_scale is the most a row uses: each N runs at eol::demo_time_scale() (what the virtual CAN bus
 // carries and the node's rate allows, as `imuforge demo --slots N` does); the column "scale" says which.
 // A time_scale with a trailing '!' (e.g. 200!) is used as given, to measure past those limits.
@@ -37,6 +38,11 @@ int main(int argc, char** argv) {
   const double rate = argc > 3 ? std::atof(argv[3]) : 10.0;
   const fs::path root = argc > 4 ? argv[4] : "/tmp/imuforge-station";
   const std::string campaign = argc > 5 ? argv[5] : "", model = argc > 6 ? argv[6] : "";
+  const bool fd = argc > 7 && std::string(argv[7]) == "fd";
+  if (argc > 7 && !fd && std::string(argv[7]) != "classic") {
+    std::fprintf(stderr, "eol_bench_station: 7th argument must be classic or fd, not '%s'\n", argv[7]);
+    return 2;
+  }
   std::printf("| N | scale | campaign (sim h) | collect wall s | finish wall s | units/h | finish CPU s/unit | run CPU s/unit | pass | early stop | peak RSS MB | child peak RSS MB | load 1 min |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   auto cpu_s = [] {
@@ -57,6 +63,7 @@ int main(int argc, char** argv) {
     o.time_scale = scale;
     o.time_scale_fixed = scale_fixed;
     o.stream_rate_hz = rate;
+    o.can_fd = fd;
     o.quiet = true;
     o.slots = n;
     o.campaign = campaign;

@@ -179,6 +179,15 @@ TEST(Batch, StationSlotsAreCheckedAndCarryTheirNest) {
   for (auto& sl : fd["slots"]) sl.erase("bus");
   fd["can"]["fd"] = true;
   EXPECT_EQ(refused(fd), "") << "CAN FD carries 16";
+  json fd_bad = fd;
+  fd_bad["can"]["fd"] = "yes";
+  EXPECT_NE(refused(fd_bad).find("station: can.fd: "), std::string::npos) << refused(fd_bad);
+  json fd_1k = fd;  // 16 units at 1 kHz on CAN FD: 67.5 % fits; on classic CAN the refusal proposes FD
+  fd_1k["can"]["stream_rate_hz"] = 1000;
+  EXPECT_EQ(refused(fd_1k), "");
+  fd_1k["can"]["fd"] = false;
+  EXPECT_NE(refused(fd_1k).find("or CAN FD (4 samples per 64-byte frame, 1000/5000 kbit/s): 67.5 %"), std::string::npos)
+      << refused(fd_1k);
   json dup = st;
   dup["slots"][1]["node_id"] = 1;
   EXPECT_NE(refused(dup).find("node 1 is used twice on socketcan:can0"), std::string::npos);

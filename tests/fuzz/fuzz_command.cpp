@@ -6,7 +6,9 @@
 //   - every response is >= 2 bytes, echoes cmd|0x80, fits the buffer;
 //   - the active table, whenever there is one, parses as a valid v1 table for this device's serial and
 //     its store seq equals the table's own sequence number; it never goes backwards;
-//   - a request with a wrong tag never changes the active table.
+//   - a request with a wrong tag never changes the active table;
+//   - the CAN FD stream's frame under construction (node_poll runs after every request) holds 0..3
+//     samples, and none once the stream is stopped.
 #include <cstdlib>
 #include <cstring>
 
@@ -22,6 +24,12 @@ class NullPort final : public hal::CanPort {
  public:
   int send(const hal::CanFrame&) noexcept override { return hal::kCanOk; }
   int receive(hal::CanFrame&) noexcept override { return hal::kCanErrWouldBlock; }
+  int send_fd(const hal::CanFdFrame& f) noexcept override {
+    if (!hal::can_fd_frame_valid(f) || f.len != proto::kFdFrameBytes) std::abort();
+    const unsigned count = f.data[2];
+    if (count == 0u || count > proto::kFdSamplesPerFrame) std::abort();
+    return hal::kCanOk;
+  }
 };
 class ZeroSensor final : public hal::Sensor {
  public:
@@ -67,6 +75,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   cfg.serial = kSerial;
   for (unsigned i = 0; i < sizeof cfg.key; ++i) cfg.key[i] = static_cast<std::uint8_t>(i * 3u);
   cfg.key_provisioned = true;
+  cfg.can_fd = true;
   cfg.store.slot_addr[0] = 0;
   cfg.store.slot_addr[1] = 8192;
   cfg.store.slot_bytes = 4096;
@@ -98,6 +107,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     const StoreSlotInfo* after = store_active(node.store);
     if (req[0] == proto::kCmdWriteTable && (after ? after->seq : 0) != seq_before) std::abort();
+    node_poll(node, t);  // streams what is due: classic frames or FD packing
+    if (node.fd_count >= proto::kFdSamplesPerFrame || (!node.streaming && node.fd_count != 0u)) std::abort();
     if (flags & 2u) boot(flash, port, sensor, cfg);
     check_active(last_seq);
   }

@@ -68,6 +68,10 @@ int main(int argc, char** argv) {
   add({proto::kCmdReadTable}, 0);
   add({proto::kCmdStatus}, 0);
   add({proto::kCmdStreamStart, 0xE8, 0x03, 7}, 0);
+  add({proto::kCmdStreamStop}, 0);
+  add({proto::kCmdStreamStart, 0xE8, 0x03, 7, proto::kStreamFlagFd}, 0);  // CAN FD stream
+  add({proto::kCmdStatus}, 0);
+  add({proto::kCmdStreamStop}, 0);
   put(cd + "/script", s);
   // ISO-TP: FF of 20 bytes + 2 CFs; and an SF
   std::vector<std::uint8_t> f = {0};

@@ -1,0 +1,89 @@
+// Virtual CAN bus figures (issue 14, not a test): what the embedded virtual bus (hal/linux, loopback UDP,
+// one datagram per frame and accepting endpoint) carries when N units stream at the same sample rate,
+// classic (3 frames of 8 bytes per sample) against CAN FD (1 frame of 64 bytes per 4 samples), and the CPU
+// it costs. In-process: N virtual IMUs (the firmware node) and N host clients on one virtual bus.
+//   can_bench_vbus [units=16] [rate_hz=1000] [seconds=3]
+// Per mode: stream frames per wall second received by the clients, samples per wall second delivered,
+// samples lost (seq gaps), frames the bus dropped (a reader fell behind), and the process CPU (user +
+// system) per 1000 delivered samples. The machines are shared: the 1-minute load is printed with each row.
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "host/can/client.h"
+#include "host/vimu/virtual_imu.h"
+
+using namespace imuforge;
+
+namespace {
+
+double cpu_s() {
+  rusage r{};
+  getrusage(RUSAGE_SELF, &r);
+  auto sec = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  return sec(r.ru_utime) + sec(r.ru_stime);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int units = argc > 1 ? std::atoi(argv[1]) : 16;
+  const int rate = argc > 2 ? std::atoi(argv[2]) : 1000;
+  const double seconds = argc > 3 ? std::atof(argv[3]) : 3.0;
+  if (units < 1 || units > 63 || rate < 1 || rate > 2000 || !(seconds > 0)) {
+    std::fprintf(stderr, "can_bench_vbus: units 1..63, rate_hz 1..2000, seconds > 0\n");
+    return 2;
+  }
+  const std::string dir = "/tmp/imuforge-vcan-bench-" + std::to_string(::getpid());
+  ::setenv("IMUFORGE_VCAN_DIR", dir.c_str(), 1);
+  std::printf("| mode | units | rate Hz | stream s | frames/s | samples/s | lost | bus dropped | CPU s per 1000 samples | load 1 min |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  for (bool fd : {false, true}) {
+    const std::string bus = std::string("virtual:bench-") + (fd ? "fd" : "classic");
+    std::vector<std::unique_ptr<vimu::VirtualImu>> imus;
+    std::vector<std::unique_ptr<can::Client>> clients;
+    for (int k = 0; k < units; ++k) {
+      vimu::VirtualImuConfig c;
+      c.bus = bus;
+      c.node_id = static_cast<std::uint8_t>(k + 1);
+      c.serial = static_cast<std::uint64_t>(k + 1);
+      imus.push_back(std::make_unique<vimu::VirtualImu>(c));
+      imus.back()->start();
+    }
+    for (int k = 0; k < units; ++k) clients.push_back(can::Client::connect(bus, static_cast<std::uint8_t>(k + 1)));
+    const double cpu0 = cpu_s();
+    const auto t0 = std::chrono::steady_clock::now();
+    for (auto& c : clients) c->start_stream(static_cast<std::uint16_t>(rate), proto::kChAll, nullptr, fd);
+    std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+    for (auto& c : clients) c->stop_stream(100);
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double cpu = cpu_s() - cpu0;
+    std::uint64_t frames = 0, received = 0, lost = 0, dropped = 0;
+    for (auto& c : clients) {
+      const auto k = c->stream_counters();
+      frames += k.frames;
+      received += k.received;
+      lost += k.lost;
+    }
+    clients.clear();
+    for (auto& i : imus) {
+      i->stop();
+      dropped += i->bus_tx_dropped();
+    }
+    double load[1] = {0};
+    (void)getloadavg(load, 1);
+    std::printf("| %s | %d | %d | %.2f | %.0f | %.0f | %llu | %llu | %.3f | %.1f |\n", fd ? "CAN FD" : "classic", units, rate,
+                wall, static_cast<double>(frames) / wall, static_cast<double>(received) / wall,
+                static_cast<unsigned long long>(lost), static_cast<unsigned long long>(dropped),
+                received > 0 ? 1000.0 * cpu / static_cast<double>(received) : 0.0, load[0]);
+    std::fflush(stdout);
+  }
+  return 0;
+}
