@@ -152,6 +152,7 @@ int run_bench_sim(int argc, char** argv) {
     if (duration_s > 0 && std::chrono::steady_clock::now() >= t_end) break;
   }
   for (auto& i : imus) i->stop();
+  for (auto& i : imus) std::fprintf(stderr, "imuforge bench-sim: %s\n", i->summary().c_str());
   server.stop();
   std::fprintf(stderr, "imuforge bench-sim: stopped after %.1f simulated s, %llu Modbus requests, %llu table commands\n",
                bench->now_s(), static_cast<unsigned long long>(server.requests()),

@@ -168,6 +168,7 @@ class VimuLink final : public ImuLink {
     cfg.bus = o.bus;
     cfg.serial = o.serial;
     cfg.node_id = static_cast<std::uint8_t>(o.node_id);
+    node_ = o.node_id;
     // The node's clock starts at 0 when it starts; the world may already be running. Node time is
     // wall time, so it is scaled into simulated time here.
     const double t0 = bench.now_s();
@@ -180,10 +181,18 @@ class VimuLink final : public ImuLink {
   void stop() override {
     if (imu_) imu_->stop();
   }
+  std::string summary() const override {
+    const fw::NodeCounters k = imu_->counters();
+    return "node " + std::to_string(node_) + ": samples_sent " + std::to_string(k.samples_sent) + ", stream_frames_tx " +
+           std::to_string(k.stream_frames_tx) + ", stream_frames_dropped " + std::to_string(k.stream_frames_dropped) +
+           ", fifo_overflow " + std::to_string(k.samples_fifo_overflow) + ", bus_tx_dropped " +
+           std::to_string(imu_->bus_tx_dropped());
+  }
 
  private:
   ImuSampler sampler_;
   std::unique_ptr<vimu::VirtualImu> imu_;
+  int node_ = 0;
 };
 }  // namespace
 

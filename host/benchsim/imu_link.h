@@ -20,6 +20,9 @@ class ImuLink {
  public:
   virtual ~ImuLink() = default;
   virtual void stop() = 0;
+  // One line of the node's stream counters, for bench-sim's log at exit (samples against stream frames
+  // shows whether it streamed classic, 3 frames per sample, or CAN FD, 1 per 4).
+  virtual std::string summary() const = 0;
 };
 
 // Converts the world's truth at simulated time t_s into one raw sample (counts, 0.01 degC). Holds the
