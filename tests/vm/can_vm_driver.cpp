@@ -78,11 +78,11 @@ struct RunResult {
   bool kept_up = false;
 };
 
-RunResult stream_run(can::Client& c, std::uint16_t rate, double seconds, bool must_hold) {
+RunResult stream_run(can::Client& c, std::uint16_t rate, double seconds, bool must_hold, bool fd = false) {
   const can::NodeStatus st0 = c.status();
   const std::uint32_t sent_before = st0.samples_sent;
   const auto t0 = Clock::now();
-  c.start_stream(rate, proto::kChAll, nullptr);
+  c.start_stream(rate, proto::kChAll, nullptr, fd);
   std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int>(seconds * 1000)));
   const std::uint32_t node_sent_total = c.stop_stream(300);
   const double el = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -101,17 +101,18 @@ RunResult stream_run(can::Client& c, std::uint16_t rate, double seconds, bool mu
   res.kept_up = static_cast<double>(sent) >= 0.95 * rate * seconds;
   char buf[640];
   std::snprintf(buf, sizeof buf,
-                "rate_hz=%u seconds=%.1f node_sent=%" PRIu64 " samples=%" PRIu64 " frames=%" PRIu64 " lost=%" PRIu64
+                "mode=%s rate_hz=%u seconds=%.1f node_sent=%" PRIu64 " samples=%" PRIu64 " frames=%" PRIu64 " lost=%" PRIu64
                 " incomplete=%" PRIu64 " duplicated=%" PRIu64 " reordered=%" PRIu64 " frames_lost=%" PRIu64
                 " fifo_overflow=%" PRIu64 " node_tx_dropped=%" PRIu64
                 " throughput_samples_s=%.1f frame_loss=%.6f kept_up=%d",
-                rate, seconds, sent, k.received, k.frames, k.lost, k.incomplete, k.duplicated, k.reordered,
+                fd ? "fd" : "classic", rate, seconds, sent, k.received, k.frames, k.lost, k.incomplete, k.duplicated, k.reordered,
                 k.frames_lost, overflow, tx_dropped, static_cast<double>(k.received) / el, loss, res.kept_up ? 1 : 0);
   std::printf("BENCH stream %s\n", buf);
-  if (must_hold) report(("stream" + std::to_string(rate)).c_str(), res.loss_free, buf);
+  if (must_hold) report(((fd ? "stream_fd" : "stream") + std::to_string(rate)).c_str(), res.loss_free, buf);
   // Whatever the rate: samples the FIFO dropped are samples the host counts lost (none else may vanish
   // on the node side; a frame lost on the bus is checked against candump afterwards).
-  if (tx_dropped == 0 && k.frames_lost == 3 * k.lost) {
+  // (Classic only: there a sample lost on the node side is 3 frames missing; an FD gap cannot tell.)
+  if (!fd && tx_dropped == 0 && k.frames_lost == 3 * k.lost) {
     report(("fifo_counted" + std::to_string(rate)).c_str(), k.lost == overflow,
            "host_lost=" + std::to_string(k.lost) + " node_fifo_overflow=" + std::to_string(overflow));
   }
@@ -145,6 +146,8 @@ int run(int argc, char** argv) {
     report("identify", id.serial == serial && id.node_id == node,
            "serial=" + std::to_string(id.serial) + " fw=" + id.fw_version + " table_present=" +
                std::to_string(id.table_present));
+    // vcan0 has MTU 72 (CANFD_MTU): the virtual IMU opened it with CAN_RAW_FD_FRAMES and offers FD.
+    report("can_fd_capable", id.can_fd, std::string("identify flags bit2=") + (id.can_fd ? "1" : "0"));
 
     // Table write, commit and read-back over kernel ISO-TP (largest table: 16 breakpoints).
     const auto key = vimu::dev_key_for_serial(serial);
@@ -191,6 +194,9 @@ int run(int argc, char** argv) {
     }
     std::printf("BENCH loss_free_rate_hz=%u (highest of 200, 1000, then 2000/1600/1250 tried in that order, "
                 "that was loss-free and sustained)\n", best);
+    // CAN FD stream over SocketCAN (struct canfd_frame, CAN_RAW_FD_FRAMES on both ends): the station
+    // rate must hold as on classic frames. Last, so candump sees one contiguous FD run.
+    (void)stream_run(*c, 1000, slow_s, true, /*fd=*/true);
     // The table is still the one flashed before the streams (streaming never touches the store).
     std::uint32_t seq_after = 0;
     const bool same = c->read_table(&seq_after) == table;
@@ -220,6 +226,8 @@ int check_candump(const std::string& path, std::uint8_t node, const std::string&
   long max_seq[3] = {-1, -1, -1};  // extended (no wrap expected in one VM run, handled anyway)
   long min_seq[3] = {-1, -1, -1};
   std::set<long> seen[3];
+  long fd_max = -1;  // CAN FD stream: the samples seen (extended seq) and the highest
+  std::set<long> fd_seen;
   std::string line;
   while (std::getline(f, line)) {
     std::istringstream ls(line);
@@ -230,13 +238,29 @@ int check_candump(const std::string& path, std::uint8_t node, const std::string&
       ++n["malformed"];
       continue;
     }
-    const std::string ids = fr.substr(0, hash), hex = fr.substr(hash + 1);
+    const std::string ids = fr.substr(0, hash);
+    // candump -L prints a CAN FD frame as ID##<flags nibble><data hex>.
+    const bool fd_frame = hash + 1 < fr.size() && fr[hash + 1] == '#';
+    const std::string hex = fd_frame ? (hash + 3 <= fr.size() ? fr.substr(hash + 3) : std::string()) : fr.substr(hash + 1);
     const bool ext = ids.size() == 8;
     const auto id = static_cast<std::uint32_t>(std::strtoul(ids.c_str(), nullptr, 16));
     std::vector<std::uint8_t> d;
     for (std::size_t i = 0; i + 1 < hex.size(); i += 2) d.push_back(static_cast<std::uint8_t>(std::strtoul(hex.substr(i, 2).c_str(), nullptr, 16)));
     bool known = false;
-    for (std::uint8_t p = 0; p < proto::kPartCount; ++p) {
+    if (id == proto::stream_id(node, proto::kPartFd, ext)) {
+      known = true;
+      if (!fd_frame || d.size() != proto::kFdFrameBytes || d[2] == 0 || d[2] > proto::kFdSamplesPerFrame) {
+        ++n["bad_stream_fd"];
+      } else {
+        ++n["stream_fd"];
+        const long s16 = d[0] | (d[1] << 8);
+        long s = s16;
+        if (fd_max >= 0) s = fd_max + static_cast<std::int16_t>(static_cast<std::uint16_t>(s16 - fd_max));
+        for (long i = 0; i < d[2]; ++i) fd_seen.insert(s + i);
+        if (s + d[2] - 1 > fd_max) fd_max = s + d[2] - 1;
+      }
+    }
+    for (std::uint8_t p = 0; p < proto::kPartCount && !fd_frame; ++p) {
       if (id == proto::stream_id(node, p, ext)) {
         known = true;
         if (d.size() != 8) {
@@ -277,6 +301,14 @@ int check_candump(const std::string& path, std::uint8_t node, const std::string&
   for (int p = 0; p < 3; ++p) {
     if (max_seq[p] >= 0) missing += static_cast<std::uint64_t>(max_seq[p] - min_seq[p] + 1) - seen[p].size();
   }
+  // CAN FD: a gap of g samples is ceil(g / 4) frames, as the host's decoder counts it.
+  std::uint64_t fd_missing = 0;
+  for (auto it = fd_seen.begin(); it != fd_seen.end(); ++it) {
+    auto next = std::next(it);
+    if (next != fd_seen.end() && *next > *it + 1) fd_missing += static_cast<std::uint64_t>((*next - *it - 1 + 3) / 4);
+  }
+  detail += " stream_fd_samples=" + std::to_string(fd_seen.size()) + " fd_missing_frames=" + std::to_string(fd_missing);
+  missing += fd_missing;
   std::uint64_t host_frames_lost = ~0ull, host_lost = 0, host_incomplete = 0;
   if (FILE* hf = std::fopen(host_counts.c_str(), "r")) {
     if (std::fscanf(hf, "%" SCNu64 " %" SCNu64 " %" SCNu64, &host_frames_lost, &host_lost, &host_incomplete) != 3) {
@@ -289,6 +321,7 @@ int check_candump(const std::string& path, std::uint8_t node, const std::string&
              (host_frames_lost == ~0ull ? std::string("unreadable") : std::to_string(host_frames_lost)) +
              " host_samples_lost=" + std::to_string(host_lost) + " host_incomplete=" + std::to_string(host_incomplete));
   const bool ok = n["unknown_id"] == 0 && n["malformed"] == 0 && n["bad_pci"] == 0 && n["bad_stream_len"] == 0 &&
+                  n["bad_stream_fd"] == 0 && n["stream_fd"] > 0 &&
                   n["stream_accel"] > 0 && n["stream_accel"] == n["stream_gyro"] &&
                   n["stream_gyro"] == n["stream_temp"] && n["req_FF"] >= 1 && n["req_CF"] >= 300 &&
                   n["resp_FC"] >= 1;

@@ -71,7 +71,8 @@ for m in can can-dev can-raw vcan can-isotp; do
   insmod /lib/modules/\$m.ko || { echo "VMTEST modules FAIL insmod \$m"; ok=0; }
 done
 ip link set lo up
-ip link add dev vcan0 type vcan && ip link set vcan0 up || { echo "VMTEST vcan FAIL"; ok=0; }
+# mtu 72: vcan0 carries CAN FD (struct canfd_frame), which the FD stream run needs.
+ip link add dev vcan0 type vcan && ip link set vcan0 mtu 72 && ip link set vcan0 up || { echo "VMTEST vcan FAIL"; ok=0; }
 if [ \$ok = 1 ]; then
   echo "VMTEST modules PASS can can-dev can-raw vcan can-isotp"
   candump -L -r 16777216 vcan0 > /tmp/candump.log 2>/tmp/candump.err &
