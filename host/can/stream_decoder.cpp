@@ -43,6 +43,9 @@ StreamDecoder::Slot* StreamDecoder::place(std::uint16_t s16, std::uint8_t bits, 
     const auto diff = static_cast<std::int16_t>(static_cast<std::uint16_t>(s16 - static_cast<std::uint16_t>(highest_)));
     seq = highest_ + diff;
   }
+  // Before the first sample of this stream (a late frame of an earlier run): nothing to place. Without
+  // this, seq -1 matched an empty slot's sentinel and un-counted a loss that was never counted.
+  if (seq < 0) return nullptr;
   if (seq > highest_) {
     // Samples skipped between the previous highest and this one: lost unless a frame shows up later.
     const std::int64_t gap = seq - highest_ - 1;

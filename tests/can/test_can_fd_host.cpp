@@ -238,6 +238,37 @@ TEST(CanFd, MalformedFdFramesAreRejectedWithAReason) {
   EXPECT_EQ(d.counters().received, got.size());
 }
 
+// Found by fuzz_stream_decoder: a late frame of an earlier run whose seq is just below this stream's first
+// one (seq -1 after extension) matched an empty slot and un-counted a loss never counted (lost wrapped).
+TEST(CanFd, FrameFromBeforeTheStreamStartIsIgnored) {
+  // The stream starts at seq 3 (extended: 3); a stale frame with seq 65535 extends to -1, one with
+  // 65533 (FD, 4 samples) to -3..0.
+  for (bool fd : {false, true}) {
+    can::StreamDecoder d(2, false, proto::kChAll, nullptr, fd, 1000);
+    if (fd) {
+      d.on_frame(fd_frame(3, 4, 0));
+      d.on_frame(fd_frame(65533, 4, 0));
+      d.on_frame(fd_frame(65535, 1, 0));
+    } else {
+      for (std::uint8_t p = 0; p < 3; ++p) {
+        hal::CanFrame f;
+        f.id = proto::stream_id(2, p, false);
+        f.len = 8;
+        f.data[0] = 3;
+        d.on_frame(f);
+        f.data[0] = 0xFF;
+        f.data[1] = 0xFF;
+        d.on_frame(f);
+      }
+    }
+    d.flush();
+    EXPECT_EQ(d.counters().lost, 0u) << fd;
+    EXPECT_EQ(d.counters().frames_lost, 0u) << fd;
+    EXPECT_EQ(d.counters().incomplete, 0u) << fd;
+    EXPECT_EQ(d.counters().received, fd ? 4u : 1u) << fd;
+  }
+}
+
 TEST(CanFd, VirtualBusCarriesFdDatagramsBesideClassicOnes) {
   const std::string bus = bus_name("fdbus");
   std::string err;
