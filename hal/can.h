@@ -65,6 +65,16 @@ constexpr int can_fd_frame_check(const CanFdFrame& f) noexcept {
 }
 constexpr bool can_fd_frame_valid(const CanFdFrame& f) noexcept { return can_fd_frame_check(f) == kCanOk; }
 
+// The classic frame that a CanFdFrame with fd == false carries (bytes beyond 8 are not part of it).
+inline CanFrame can_frame_from_fd(const CanFdFrame& a) noexcept {
+  CanFrame f;
+  f.id = a.id;
+  f.extended = a.extended;
+  f.len = a.len > 8u ? static_cast<std::uint8_t>(8u) : a.len;
+  for (unsigned i = 0; i < f.len; ++i) f.data[i] = a.data[i];
+  return f;
+}
+
 // A CAN port. Implementations never block: send() queues or fails with kCanErrWouldBlock, receive()
 // returns kCanErrWouldBlock when no frame is pending.
 class CanPort {

@@ -28,12 +28,14 @@ class LinuxCanPort : public CanPort {
   virtual ~LinuxCanPort() = default;
   // A pollable file descriptor that becomes readable when receive() has a frame.
   virtual int fd() const noexcept = 0;
+  // A classic frame (FD frames on the bus are skipped): receive_any without the FD ones.
+  int receive(CanFrame& frame) noexcept final;
   // Blocks up to timeout_ms for one frame. kCanOk, kCanErrWouldBlock (timeout) or an error.
   int receive_wait(CanFrame& frame, int timeout_ms) noexcept;
   // Up to `max` frames already queued, without blocking; returns how many (0: none), or a negative
   // kCanErr* on an error. SocketCAN reads them with one recvmmsg call: a stream at 1 kHz is 3000
   // frames/s, and one system call per frame is what a starved emulated host could not keep up with.
-  virtual int receive_many(CanFrame* frames, int max) noexcept;
+  int receive_many(CanFrame* frames, int max) noexcept;
   // Blocks up to timeout_ms for the first frame, then takes what else is queued (receive_many).
   int receive_many_wait(CanFrame* frames, int max, int timeout_ms) noexcept;
   // True if send_fd() can put CAN FD frames on this bus (virtual bus: always; SocketCAN: opened with

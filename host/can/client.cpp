@@ -181,12 +181,7 @@ class VirtualTransport final : public Client::Transport {
       for (int i = 0; i < n; ++i) {
         const hal::CanFdFrame& a = batch_[i];
         if (sink_.feed(a) || a.fd) continue;
-        hal::CanFrame f;
-        f.id = a.id;
-        f.extended = a.extended;
-        f.len = a.len;
-        std::memcpy(f.data, a.data, a.len);
-        fw::isotp_on_frame(link_, f, now_us());
+        fw::isotp_on_frame(link_, hal::can_frame_from_fd(a), now_us());
         take_response();  // before the next frame: a second response in the same batch must find room
       }
       if (n < 0) io_error_ = true;

@@ -3,7 +3,6 @@
 #include "firmware/can_node/protocol.h"
 #include "firmware/common/endian.h"
 
-#include <cstring>
 #include <stdexcept>
 
 namespace imuforge::can {
@@ -137,15 +136,7 @@ bool StreamDecoder::on_frame(const hal::CanFrame& f) {
 
 bool StreamDecoder::on_frame(const hal::CanFdFrame& f) {
   if (f.extended != ext_) return false;
-  if (!f.fd) {
-    if (f.len > 8) return false;
-    hal::CanFrame c;
-    c.id = f.id;
-    c.extended = f.extended;
-    c.len = f.len;
-    std::memcpy(c.data, f.data, f.len);
-    return on_frame(c);
-  }
+  if (!f.fd) return f.len <= 8 && on_frame(hal::can_frame_from_fd(f));
   if (f.id != proto::stream_id(node_, proto::kPartFd, ext_)) return false;
   if (!fd_) return true;  // an FD frame during a classic stream
   return on_fd(f);
