@@ -363,59 +363,20 @@ class SocketCanPort final : public LinuxCanPort {
   int send(const CanFrame& frame) noexcept override {
     if (fd_ < 0) return kCanErrClosed;
     if (!can_frame_valid(frame)) return kCanErrArg;
-    can_frame cf{};
-    cf.can_id = frame.id | (frame.extended ? CAN_EFF_FLAG : 0u);
-    cf.len = frame.len;
-    std::memcpy(cf.data, frame.data, 8);
-    // A full socket/qdisc queue is normal at high rates: wait up to 2 ms for room once, as a CAN
-    // controller's TX mailbox would, then report it to the caller.
-    for (int attempt = 0; attempt < 2; ++attempt) {
-      const ssize_t n = ::write(fd_, &cf, sizeof cf);
-      if (n == static_cast<ssize_t>(sizeof cf)) return kCanOk;
-      if (n >= 0) {
-        error_ = "socketcan: short write";
-        return kCanErrIo;
-      }
-      if (errno == ENETDOWN) return kCanErrBusOff;
-      if (errno != EAGAIN && errno != ENOBUFS && errno != EINTR) {
-        error_ = sys_error("socketcan: write");
-        return kCanErrIo;
-      }
-      pollfd p{fd_, POLLOUT, 0};
-      (void)::poll(&p, 1, 2);
-    }
-    ++tx_dropped_;
-    return kCanErrWouldBlock;
+    std::uint8_t buf[CAN_MTU];
+    encode(frame, buf);
+    return write_frame(buf, sizeof buf);
   }
 
   int send_fd(const CanFdFrame& frame) noexcept override {
     if (fd_ < 0) return kCanErrClosed;
     const int chk = can_fd_frame_check(frame);
     if (chk != kCanOk) return chk;
-    if (frame.fd && !fd_enabled_) return kCanErrNoFd;
-    canfd_frame cf{};
-    cf.can_id = frame.id | (frame.extended ? CAN_EFF_FLAG : 0u);
-    cf.len = frame.len;
-    cf.flags = frame.fd ? static_cast<std::uint8_t>(CANFD_FDF | (frame.brs ? CANFD_BRS : 0)) : 0;
-    std::memcpy(cf.data, frame.data, frame.len);
-    const std::size_t mtu = frame.fd ? CANFD_MTU : CAN_MTU;
-    for (int attempt = 0; attempt < 2; ++attempt) {
-      const ssize_t n = ::write(fd_, &cf, mtu);
-      if (n == static_cast<ssize_t>(mtu)) return kCanOk;
-      if (n >= 0) {
-        error_ = "socketcan: short write";
-        return kCanErrIo;
-      }
-      if (errno == ENETDOWN) return kCanErrBusOff;
-      if (errno != EAGAIN && errno != ENOBUFS && errno != EINTR) {
-        error_ = sys_error("socketcan: write");
-        return kCanErrIo;
-      }
-      pollfd p{fd_, POLLOUT, 0};
-      (void)::poll(&p, 1, 2);
-    }
-    ++tx_dropped_;
-    return kCanErrWouldBlock;
+    if (!frame.fd) return send(can_frame_from_fd(frame));
+    if (!fd_enabled_) return kCanErrNoFd;
+    std::uint8_t buf[CANFD_MTU];
+    encode_fd(frame, buf);
+    return write_frame(buf, sizeof buf);
   }
 
   int receive_any(CanFdFrame& frame) noexcept override {
@@ -464,6 +425,28 @@ class SocketCanPort final : public LinuxCanPort {
   }
 
  private:
+  // One struct can_frame or canfd_frame. A full socket/qdisc queue is normal at high rates: wait up to
+  // 2 ms for room once, as a CAN controller's TX mailbox would, then report it to the caller.
+  int write_frame(const std::uint8_t* buf, std::size_t len) noexcept {
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      const ssize_t n = ::write(fd_, buf, len);
+      if (n == static_cast<ssize_t>(len)) return kCanOk;
+      if (n >= 0) {
+        error_ = "socketcan: short write";
+        return kCanErrIo;
+      }
+      if (errno == ENETDOWN) return kCanErrBusOff;
+      if (errno != EAGAIN && errno != ENOBUFS && errno != EINTR) {
+        error_ = sys_error("socketcan: write");
+        return kCanErrIo;
+      }
+      pollfd p{fd_, POLLOUT, 0};
+      (void)::poll(&p, 1, 2);
+    }
+    ++tx_dropped_;
+    return kCanErrWouldBlock;
+  }
+
   int fd_ = -1;
 };
 
@@ -507,45 +490,38 @@ int LinuxCanPort::receive_many_any(CanFdFrame* frames, int max) noexcept {
   return k;
 }
 
-int LinuxCanPort::receive_many_any_wait(CanFdFrame* frames, int max, int timeout_ms) noexcept {
-  if (max <= 0) return 0;
-  const int k = receive_many_any(frames, max);
-  if (k != 0) return k;
+int LinuxCanPort::wait_readable(int timeout_ms) noexcept {
   pollfd p{fd(), POLLIN, 0};
   const int pr = ::poll(&p, 1, timeout_ms);
   if (pr < 0 && errno != EINTR) {
     error_ = sys_error("poll");
     return kCanErrIo;
   }
-  if (pr <= 0) return 0;
-  return receive_many_any(frames, max);
+  return pr > 0 ? 1 : 0;
+}
+
+int LinuxCanPort::receive_many_any_wait(CanFdFrame* frames, int max, int timeout_ms) noexcept {
+  if (max <= 0) return 0;
+  const int k = receive_many_any(frames, max);
+  if (k != 0) return k;
+  const int w = wait_readable(timeout_ms);
+  return w <= 0 ? w : receive_many_any(frames, max);
 }
 
 int LinuxCanPort::receive_many_wait(CanFrame* frames, int max, int timeout_ms) noexcept {
   if (max <= 0) return 0;
   const int k = receive_many(frames, max);
   if (k != 0) return k;
-  pollfd p{fd(), POLLIN, 0};
-  const int pr = ::poll(&p, 1, timeout_ms);
-  if (pr < 0 && errno != EINTR) {
-    error_ = sys_error("poll");
-    return kCanErrIo;
-  }
-  if (pr <= 0) return 0;
-  return receive_many(frames, max);
+  const int w = wait_readable(timeout_ms);
+  return w <= 0 ? w : receive_many(frames, max);
 }
 
 int LinuxCanPort::receive_wait(CanFrame& frame, int timeout_ms) noexcept {
-  int rc = receive(frame);
+  const int rc = receive(frame);
   if (rc != kCanErrWouldBlock) return rc;
-  pollfd p{fd(), POLLIN, 0};
-  const int pr = ::poll(&p, 1, timeout_ms);
-  if (pr < 0 && errno != EINTR) {
-    error_ = sys_error("poll");
-    return kCanErrIo;
-  }
-  if (pr <= 0) return kCanErrWouldBlock;
-  return receive(frame);
+  const int w = wait_readable(timeout_ms);
+  if (w < 0) return w;
+  return w == 0 ? kCanErrWouldBlock : receive(frame);
 }
 
 bool parse_bus_spec(const std::string& spec, BusSpec* out, std::string* err) {

@@ -53,6 +53,8 @@ class LinuxCanPort : public CanPort {
   std::uint64_t tx_dropped() const noexcept { return tx_dropped_; }
 
  protected:
+  // Waits up to timeout_ms for fd() to become readable: 1 readable, 0 timeout (or a signal), kCanErrIo.
+  int wait_readable(int timeout_ms) noexcept;
   std::string error_;
   std::uint64_t tx_dropped_ = 0;
   bool fd_enabled_ = false;

@@ -28,20 +28,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::size_t n = len < size - i ? len : size - i;
     const std::uint8_t part = static_cast<std::uint8_t>((kind >> 2) & 3u);
     const std::uint8_t who = (kind & 2u) != 0 ? node : static_cast<std::uint8_t>(node + 1);
+    auto feed = [&](auto f, std::size_t cap) {
+      f.id = proto::stream_id(who, part, ext);
+      f.extended = ext;
+      f.len = static_cast<std::uint8_t>(n > cap ? cap : n);
+      std::memcpy(f.data, data + i, f.len);
+      (void)d.on_frame(f);
+    };
     if ((kind & 1u) != 0) {
-      hal::CanFdFrame f;
-      f.id = proto::stream_id(who, part, ext);
-      f.extended = ext;
-      f.len = static_cast<std::uint8_t>(n > 64 ? 64 : n);
-      std::memcpy(f.data, data + i, f.len);
-      (void)d.on_frame(f);
+      feed(hal::CanFdFrame{}, 64);
     } else {
-      hal::CanFrame f;
-      f.id = proto::stream_id(who, part, ext);
-      f.extended = ext;
-      f.len = static_cast<std::uint8_t>(n > 8 ? 8 : n);
-      std::memcpy(f.data, data + i, f.len);
-      (void)d.on_frame(f);
+      feed(hal::CanFrame{}, 8);
     }
     i += n;
     const auto& k = d.counters();
