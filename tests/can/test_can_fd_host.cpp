@@ -337,6 +337,7 @@ TEST(CanFd, ClientStreamsFdFromTheVirtualImu) {
   for (bool fd : {false, true}) {
     std::mutex mu;
     std::vector<can::StreamSample> got;
+    const std::uint32_t sent_before = c->status().samples_sent;
     c->start_stream(1000, proto::kChAll, [&](const can::StreamSample& s) {
       std::lock_guard<std::mutex> lk(mu);
       got.push_back(s);
@@ -351,7 +352,7 @@ TEST(CanFd, ClientStreamsFdFromTheVirtualImu) {
     EXPECT_EQ(k.malformed, 0u);
     EXPECT_EQ(k.received, got.size());
     EXPECT_EQ(k.frames, fd ? (got.size() + 3) / 4 : 3 * got.size());
-    (void)sent_total;
+    EXPECT_EQ(got.size(), sent_total - sent_before);  // same count as the node sent, either format
     for (std::size_t i = 1; i < got.size(); ++i) {
       ASSERT_EQ(got[i].seq, got[i - 1].seq + 1);
       ASSERT_EQ(got[i].t_us - got[i - 1].t_us, 1000u);
@@ -362,6 +363,32 @@ TEST(CanFd, ClientStreamsFdFromTheVirtualImu) {
       ASSERT_EQ(s.gyro_counts[1], -ms);
       ASSERT_EQ(s.temp_cdegC, 2000 + ms % 7);
     }
+  }
+
+  // Frames lost on the wire (every 9th frame the node sends, responses included): each lost FD frame is
+  // a gap of its count, 4 but for a partial one; every delivered sample is still the truth.
+  const std::uint32_t sent_before = c->status().samples_sent;
+  imu.set_tx_drop_every(9);
+  std::vector<can::StreamSample> got;
+  std::mutex mu;
+  c->start_stream(1000, proto::kChAll, [&](const can::StreamSample& s) {
+    std::lock_guard<std::mutex> lk(mu);
+    got.push_back(s);
+  }, true);
+  std::this_thread::sleep_for(600ms);
+  const std::uint32_t sent = c->stop_stream(100) - sent_before;
+  imu.set_tx_drop_every(0);
+  const auto k = c->stream_counters();
+  std::lock_guard<std::mutex> lk(mu);
+  EXPECT_GT(k.frames_lost, 5u);
+  EXPECT_LE(k.lost, 4 * k.frames_lost);
+  EXPECT_LE(4 * k.frames_lost - k.lost, 3u);  // at most one partial frame among the lost ones
+  EXPECT_GE(k.received + k.lost, sent - 4u);  // the last frame's loss (if dropped) shows no gap
+  EXPECT_LE(k.received + k.lost, sent);
+  EXPECT_EQ(k.received, got.size());
+  for (const auto& s : got) {
+    const auto ms = static_cast<std::int16_t>((s.t_us + 500) / 1000 % 30000);
+    ASSERT_EQ(s.accel_counts[0], ms);
   }
   imu.stop();
 
