@@ -4,6 +4,9 @@
 
 #include "host/can/bus_budget.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace can_test_bus_budget {
+
 using namespace imuforge::can;
 
 TEST(BusBudget, ClassicFrameLengthsMatchTheStandard) {
@@ -68,3 +71,4 @@ TEST(BusBudget, RefusalSaysWhatWouldFit) {
   EXPECT_NE(v.message.find("or CAN FD"), std::string::npos) << v.message;
   EXPECT_NE(v.message.find("bus socketcan:can1: 2 units"), std::string::npos) << v.message;  // 81 %: also over
 }
+}  // namespace can_test_bus_budget

@@ -14,7 +14,10 @@
 
 #include "firmware/table/table.h"
 
-extern char** environ;
+extern char** environ;  // POSIX: declared by no header
+
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace can_test_can_cli {
 
 namespace {
 
@@ -104,3 +107,4 @@ TEST(CanCli, VimuProcessAndImuforgeCan) {
 }
 
 }  // namespace
+}  // namespace can_test_can_cli

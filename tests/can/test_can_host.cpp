@@ -15,6 +15,9 @@
 #include "host/vimu/virtual_imu.h"
 #include "hal/linux/linux_can.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace can_test_can_host {
+
 using namespace imuforge;
 using namespace std::chrono_literals;
 
@@ -315,3 +318,4 @@ TEST(CanHost, VirtualBusAcceptanceFilterIsAppliedBySenders) {
 }
 
 }  // namespace
+}  // namespace can_test_can_host

@@ -29,6 +29,9 @@
 
 #include "firmware/common/crc32.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace cli_malformed_input_test {
+
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
@@ -484,3 +487,4 @@ TEST_F(MalformedInput, LogColumnsInAnotherOrderReadTheSame) {
   ASSERT_EQ(run(c2).code, 0);
   EXPECT_EQ(slurp(kWork + "/out2/a.csv"), slurp(kWork + "/out2/b.csv"));
 }
+}  // namespace cli_malformed_input_test

@@ -24,6 +24,9 @@
 
 #include "tests/diagnosis/sim_helpers.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace diagnosis_closed_loop_test {
+
 namespace fs = std::filesystem;
 using namespace diagtest;
 
@@ -146,3 +149,4 @@ TEST(DiagnosisClosedLoop, EmittedModelSolvesToTheDiagnosedGap) {
   }
   if (!std::getenv("KEEP")) fs::remove_all(dir);
 }
+}  // namespace diagnosis_closed_loop_test

@@ -9,6 +9,9 @@
 
 #include "tests/diagnosis/sim_helpers.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace diagnosis_diagnosis_battery_test {
+
 using namespace diagtest;
 namespace model = imuforge::model;
 
@@ -208,3 +211,4 @@ TEST(DiagnosisBattery, BlindCasesNullCasesAndTwoEffects) {
   // branch i12-acc); open, to be restored to 8/8 with a per-seed σ or a σ that does not depend on the seed.
   EXPECT_GE(both, kSeeds - 3);
 }
+}  // namespace diagnosis_diagnosis_battery_test

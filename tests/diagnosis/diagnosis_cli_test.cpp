@@ -9,6 +9,9 @@
 #include "host/io/log.h"
 #include "tests/diagnosis/sim_helpers.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace diagnosis_diagnosis_cli_test {
+
 namespace fs = std::filesystem;
 using namespace diagtest;
 
@@ -57,3 +60,4 @@ TEST(DiagnosisCli, WritesOutputsAndFindsTheEffect) {
   EXPECT_EQ(run("--log " + (dir / "bad.csv").string() + " --model " + model + " --out " + (dir / "o4").string()), 2);
   if (!std::getenv("KEEP")) fs::remove_all(dir);
 }
+}  // namespace diagnosis_diagnosis_cli_test

@@ -8,6 +8,9 @@
 #include "host/diagnosis/stats.h"
 #include "tests/diagnosis/sim_helpers.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace diagnosis_diagnosis_unit_test {
+
 using namespace imuforge::diagnosis;
 
 TEST(DiagnosisStats, ChiSquareSurvivalAgainstClosedForms) {
@@ -275,3 +278,4 @@ TEST(DiagnosisPipeline, ClockErrorOfSeveralSamplesAtInstantaneousSteps) {
   EXPECT_TRUE(said);
   for (int a = 0; a < 6; ++a) EXPECT_LT(r.gap_after.chi2_dof[static_cast<std::size_t>(a)], 3.0) << axis_name(a);
 }
+}  // namespace diagnosis_diagnosis_unit_test

@@ -15,6 +15,9 @@
 #include "host/records/store.h"
 #include "host/sim/simulator.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace eol_test_batch {
+
 using namespace imuforge;
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -249,3 +252,4 @@ TEST(Batch, CommandLine) {
   EXPECT_EQ(run_cmd("can budget --units 16 --rate 200 --fd", out, b.dir), 0) << out;
   EXPECT_EQ(run_cmd("can budget --units 16 --rate 200 --buses 2", out, b.dir), 0) << out;
 }
+}  // namespace eol_test_batch

@@ -13,7 +13,7 @@
 // run is the runner's doing.
 //
 // Points: IMUFORGE_CRASH_POINTS (6 in ctest; the benchmark runs 60: `IMUFORGE_CRASH_POINTS=60
-// build/host/bin/eol_crash_test`), seed IMUFORGE_CRASH_SEED (1). Prints "kill points survived: S of T".
+// build/host/bin/tests_eol --gtest_filter='Crash.*'`), seed IMUFORGE_CRASH_SEED (1). Prints "kill points survived: S of T".
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/wait.h>
@@ -43,6 +43,9 @@
 #include "host/records/store.h"
 #include "tests/eol/fake_world.h"
 #include "tests/eol/pg_server.h"
+
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace eol_test_crash {
 
 using namespace imuforge;
 using namespace imuforge::eol;
@@ -531,3 +534,4 @@ TEST(Crash, ContinuedRotationInFlightIsCollectedAgainAtTheSamePhase) {
   }
   if (!std::getenv("EOL_KEEP")) fs::remove_all(d);
 }
+}  // namespace eol_test_crash

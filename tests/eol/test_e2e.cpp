@@ -10,6 +10,9 @@
 #include "host/eol/journal.h"
 #include "host/records/store.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace eol_test_e2e {
+
 namespace fs = std::filesystem;
 
 TEST(EndToEnd, ShortCampaignOnTheBenchSimulator) {
@@ -51,3 +54,4 @@ TEST(EndToEnd, ShortCampaignOnTheBenchSimulator) {
   fs::remove_all(out, ec);
   fs::remove(out.string() + ".stdout", ec);
 }
+}  // namespace eol_test_e2e

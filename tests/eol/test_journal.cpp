@@ -7,6 +7,9 @@
 #include "host/eol/journal.h"
 #include "host/records/record.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace eol_test_journal {
+
 using namespace imuforge::eol;
 namespace fs = std::filesystem;
 
@@ -120,3 +123,4 @@ TEST(Journal, GarbageFileIsAnError) {
   EXPECT_THROW(read_journal((d / "missing.log").string()), JournalError);
   fs::remove_all(d);
 }
+}  // namespace eol_test_journal

@@ -8,6 +8,9 @@
 #include "host/eol/settle.h"
 #include "host/eol/station.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace eol_test_passfail {
+
 using namespace imuforge::eol;
 using imuforge::records::ParameterRecord;
 using imuforge::records::VerificationRecord;
@@ -118,3 +121,4 @@ TEST(Settle, NeedsAFullWindow) {
   det.add(61, 30.0);  // a jump: the slope over the window rises
   EXPECT_FALSE(det.settled());
 }
+}  // namespace eol_test_passfail

@@ -7,6 +7,9 @@
 #include "host/records/store.h"
 #include "tests/eol/pg_server.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace eol_test_records {
+
 using namespace imuforge::records;
 
 namespace {
@@ -196,3 +199,4 @@ TEST(RecordsPostgres, UnreachableServerIsAClearError) {
     EXPECT_EQ(m.find("secret"), std::string::npos) << "password must not leak: " << m;
   }
 }
+}  // namespace eol_test_records

@@ -10,6 +10,9 @@
 #include "host/records/store.h"
 #include "tests/eol/fake_world.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace eol_test_runner {
+
 using namespace imuforge;
 using namespace imuforge::eol;
 namespace fs = std::filesystem;
@@ -347,3 +350,4 @@ TEST(Runner, FixtureToleranceIsCheckedBeforeTheRun) {
   }
   EXPECT_FALSE(fs::exists(dir.d / "bad" / "journal.log"));
 }
+}  // namespace eol_test_runner

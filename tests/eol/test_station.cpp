@@ -19,6 +19,9 @@
 #include "host/eol/runner.h"
 #include "host/records/store.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace eol_test_station {
+
 namespace fs = std::filesystem;
 using imuforge::eol::DemoOptions;
 
@@ -158,3 +161,4 @@ TEST(StationRun, CrashMidCollectionAndResumeGiveTheSameRecordsOnce) {
   for (const auto& e : uj.entries) resumed_marks += e["type"] == "finished";
   EXPECT_EQ(resumed_marks, 1);
 }
+}  // namespace eol_test_station

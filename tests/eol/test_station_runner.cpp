@@ -22,6 +22,9 @@
 #include "host/records/store.h"
 #include "tests/eol/fake_world.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace eol_test_station_runner {
+
 using namespace imuforge;
 using namespace imuforge::eol;
 namespace fs = std::filesystem;
@@ -459,3 +462,4 @@ TEST(StationRunner, ContinuedRotationInFlightResumesAtTheSamePhase) {
           << "axis " << ax << ": z CCW commanded at " << a[ax] << " deg, expected " << want[ax];
   }
 }
+}  // namespace eol_test_station_runner

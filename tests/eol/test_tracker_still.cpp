@@ -10,6 +10,9 @@
 #include "host/eol/tracker.h"
 #include "host/model/sensor_model.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace eol_test_tracker_still {
+
 using namespace imuforge;
 
 namespace {
@@ -119,3 +122,4 @@ TEST(TrackerStill, ARateRunIsNotJudgedByThePoseDetector) {
   ASSERT_TRUE(t.add_segment(meta(), rows, 0, "z CW"));
   EXPECT_TRUE(t.residuals().back().still_note.empty());
 }
+}  // namespace eol_test_tracker_still

@@ -8,6 +8,9 @@
 #include "host/estimator/kfold.h"
 #include "host/solver/estimate.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace estimator_core_test {
+
 using namespace imuforge::estimator;
 
 // The solver's names are the core's (one estimator, not two that agree today).
@@ -173,3 +176,4 @@ TEST(EstimatorCore, KFoldHeldOutMatchesABruteForceRefit) {
   EXPECT_EQ(heldout(fne, sparse, {0, 1, 2}).nb, 1);
   EXPECT_THROW(heldout(fne, FoldedNormalEquations(K + 1, 3), {0}), EstimatorError);
 }
+}  // namespace estimator_core_test

@@ -14,6 +14,9 @@
 #include "host/table/host_kernel.h"
 #include "host/table/table_writer.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace firmware_test_table_host {
+
 using namespace imuforge;
 
 namespace {
@@ -203,3 +206,4 @@ TEST(HostKernel, CompensatesALogAndFlags) {
   std::remove(in.c_str());
   std::remove(out.c_str());
 }
+}  // namespace firmware_test_table_host

@@ -19,6 +19,9 @@
 #include "host/fixture/fixture.h"
 #include "host/physics/earth.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace modbus_test_bench_imu {
+
 using namespace imuforge;
 
 namespace {
@@ -185,3 +188,4 @@ TEST(ModbusBenchImu, SlotsAreSeparateUnitsWithTheirOwnNestAndNoise) {
   EXPECT_THROW(dead->identify(), can::Error);
   for (auto& i : imus) i->stop();
 }
+}  // namespace modbus_test_bench_imu

@@ -20,6 +20,9 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace modbus_test_driver {
+
 using namespace imuforge;
 using fixture::FixtureConfig;
 using fixture::FixtureError;
@@ -449,3 +452,4 @@ TEST(ModbusDriver, AccelLimitRegisterAndStationExample) {
     EXPECT_NE(cc.map_path.find("watlow-f4.json"), std::string::npos);
   }
 }
+}  // namespace modbus_test_driver

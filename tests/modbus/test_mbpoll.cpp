@@ -21,7 +21,10 @@
 
 #include "host/fixture/fixture.h"
 
-extern char** environ;
+extern char** environ;  // POSIX: declared by no header
+
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace modbus_test_mbpoll {
 
 namespace {
 
@@ -253,3 +256,4 @@ TEST(ModbusMbpoll, BenchSimProcessKilledAndRestarted) {
   EXPECT_NEAR(t->status(0).angle_deg, 30.0, 1e-4);
   EXPECT_GE(t->stats().reconnects, 1u);
 }
+}  // namespace modbus_test_mbpoll

@@ -10,6 +10,9 @@
 
 #include <nlohmann/json.hpp>
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace modbus_test_register_map {
+
 using namespace imuforge::fixture;
 
 namespace {
@@ -110,3 +113,4 @@ TEST(ModbusMap, StationConfigParsing) {
   j["map"] = "no-such-map.json";
   EXPECT_THROW(fixture_config_from_json(j, ""), FixtureError);
 }
+}  // namespace modbus_test_register_map

@@ -9,6 +9,9 @@
 #include "host/nav/strapdown.h"
 #include "host/physics/earth.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace nav_mechanisation_test {
+
 using namespace imuforge;
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
@@ -224,3 +227,4 @@ TEST(Mechanisation, ConstantVelocityAlongAMeridianIsExact) {
   EXPECT_LT((s.v_ned - Vector3d(vn, 0, 0)).norm(), 1e-5);
   EXPECT_LT(nav::attitude_error_ned(s.q_nb, Quaterniond::Identity()).norm(), 1e-9);
 }
+}  // namespace nav_mechanisation_test

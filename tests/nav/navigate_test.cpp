@@ -17,6 +17,9 @@
 #include "host/sim/trajectory_file.h"
 #include "host/sim/vehicle_sim.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace nav_navigate_test {
+
 using namespace imuforge;
 namespace fs = std::filesystem;
 
@@ -178,3 +181,4 @@ TEST(Navigate, SimulateWritesAVehicleLog) {
   EXPECT_NEAR(raw_z_sum / 2000, -r.meta().gravity_mps2, 0.5);  // bias, scale and noise of a consumer part
   fs::remove(log);
 }
+}  // namespace nav_navigate_test

@@ -11,6 +11,9 @@
 #include "host/physics/vehicle.h"
 #include "host/sim/trajectory_file.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace nav_vehicle_test {
+
 using namespace imuforge;
 using physics::VehicleSegment;
 using Eigen::Vector3d;
@@ -155,3 +158,4 @@ TEST(Vehicle, NavigatorFollowsTheSimulatedUrbanTrajectory) {
   RecordProperty("free_10min_m", std::to_string(full));
   std::printf("ideal samples: worst horizontal error %.3g m over 10 min free, %.3g m over the 60 s tunnel\n", full, tunnel);
 }
+}  // namespace nav_vehicle_test

@@ -22,6 +22,9 @@
 #include "host/solver/repeatability.h"
 #include "tests/poses/hand_placed.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace poses_detect_test {
+
 using namespace imuforge;
 using handtest::Step;
 
@@ -527,3 +530,4 @@ TEST(StillPart, AFixtureDwellLosesItsRingingAndAShakenDwellIsRejectedWithAReason
   EXPECT_NE(bad.reason.find("rejected"), std::string::npos) << bad.reason;
   std::printf("ringing dwell: %s; turning dwell: %s\n", sp.reason.c_str(), bad.reason.c_str());
 }
+}  // namespace poses_detect_test

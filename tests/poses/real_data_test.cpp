@@ -35,6 +35,9 @@
 #include "host/solver/reference_free.h"
 #include "host/solver/repeatability.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace poses_real_data_test {
+
 using namespace imuforge;
 
 namespace {
@@ -253,3 +256,4 @@ TEST(PosesRealData, XsensHalvesAgreeWithinTheirSpreadAndCrossApplicationIsReport
   EXPECT_GT(rep.cross_min, rep.self_min);
   for (std::size_t k = 0; k < 2; ++k) EXPECT_LT(rep.joint_rms[k], rep.cross_rms(1 - static_cast<long>(k), static_cast<long>(k)));
 }
+}  // namespace poses_real_data_test

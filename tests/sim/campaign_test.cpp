@@ -11,6 +11,10 @@
 #include "host/physics/earth.h"
 #include "host/sim/simulator.h"
 #include "host/physics/timeline.h"
+#include "host/sim/noise.h"
+
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace sim_campaign_test {
 
 using namespace imuforge;
 using nlohmann::json;
@@ -230,7 +234,6 @@ TEST(Simulate, TruthHoldsEveryParameterAndTheRealisedTurnOnBias) {
   EXPECT_EQ(sum.truth["segments"].size(), static_cast<std::size_t>(sum.segments));
 }
 
-#include "host/sim/noise.h"
 
 namespace {
 double adev(const std::vector<double>& x, std::size_t m) {
@@ -319,3 +322,4 @@ TEST(Simulate, HandHeldPosesHaveNoReferenceAndRestAtTheAttitude) {
   const double wn = std::sqrt(std::pow(b.raw[3] * 1e-8, 2) + std::pow(b.raw[4] * 1e-8, 2) + std::pow(b.raw[5] * 1e-8, 2));
   EXPECT_NEAR(wn, physics::wgs84::kOmegaE_rad_s, 2e-8);
 }
+}  // namespace sim_campaign_test

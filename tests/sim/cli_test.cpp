@@ -9,6 +9,9 @@
 
 #include "host/io/log.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace sim_cli_test {
+
 namespace {
 std::string tmp(const char* p) { return std::string(IMUFORGE_BINARY_DIR) + "/sim_cli_test_" + p; }
 std::string ex(const char* f) { return std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/" + f; }
@@ -86,3 +89,4 @@ TEST(Cli, Hdf5LogThroughSimulateConvertAndSolve) {
   EXPECT_FALSE(std::filesystem::exists(tmp("never.csv")));
   EXPECT_FALSE(std::filesystem::exists(tmp("never.csv.partial")));
 }
+}  // namespace sim_cli_test

@@ -10,6 +10,9 @@
 
 #include "host/io/import.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace sim_import_map_test {
+
 using namespace imuforge::io;
 
 namespace {
@@ -193,3 +196,4 @@ TEST(ImportMap, BrokenMapsNameTheKey) {
                 .find("metadata 'latitude_deg'"), std::string::npos);
   EXPECT_EQ(err(R"("time": {"column": "t"}, )" + acc + "," + gyr), "no error");
 }
+}  // namespace sim_import_map_test

@@ -7,6 +7,9 @@
 
 #include "host/io/import.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace sim_import_test {
+
 using namespace imuforge::io;
 
 namespace {
@@ -74,3 +77,4 @@ TEST(Import, MalformedInputNamesLineAndColumn) {
   }
   EXPECT_THROW(import_recording(ImportOptions{"nope", p, "", "", 0}, tmp("x.csv")), LogError);
 }
+}  // namespace sim_import_test

@@ -7,6 +7,9 @@
 #include "host/physics/earth.h"
 #include "host/physics/table.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace sim_kinematics_test {
+
 using namespace imuforge::physics;
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
@@ -150,3 +153,4 @@ TEST(Kinematics, AxisErrorsAndMountErrorMoveTheReadings) {
   EXPECT_LT((k2.w_rad_s - wie_rot).norm(), 1e-15);
   EXPECT_EQ(geom.nominal().axes[0].error.zero_rad, 0.0);
 }
+}  // namespace sim_kinematics_test

@@ -10,6 +10,9 @@
 
 #include "host/io/log.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace sim_log_test {
+
 using namespace imuforge::io;
 
 namespace {
@@ -417,3 +420,4 @@ TEST(Log, RefusedFilesDoNotLeakDescriptors) {
   for (int i = 0; i < 100; ++i) EXPECT_THROW(imuforge::io::LogReader r(p), imuforge::io::LogError);
   EXPECT_EQ(open_fds(), before);
 }
+}  // namespace sim_log_test

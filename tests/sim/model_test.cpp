@@ -9,6 +9,9 @@
 #include "host/model/measure.h"
 #include "host/model/sensor_model.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace sim_model_test {
+
 using namespace imuforge::model;
 using nlohmann::json;
 
@@ -197,3 +200,4 @@ TEST(ModelSpec, ExpandsOrdersAndOptions) {
     EXPECT_GE(s.parameters().size(), 24u) << f;
   }
 }
+}  // namespace sim_model_test

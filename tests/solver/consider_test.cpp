@@ -14,6 +14,9 @@
 #include "host/solver/consider.h"
 #include "host/solver/fixture_errors.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace solver_consider_test {
+
 using namespace imuforge;
 using nlohmann::json;
 
@@ -120,3 +123,4 @@ TEST(FixtureTolerance, ZeroToleranceLeavesTheCovarianceUnchanged) {
   const mc::ConsiderDraw d = mc::consider_draw(c, basic_sensor(), model::model_spec_from_json(m), 7, ::testing::TempDir());
   EXPECT_EQ((d.honest.covariance - d.noise_only.covariance).norm(), 0.0);
 }
+}  // namespace solver_consider_test

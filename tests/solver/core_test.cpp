@@ -7,6 +7,9 @@
 #include "host/solver/sha256.h"
 #include "host/solver/srif.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace solver_core_test {
+
 using namespace imuforge::solver;
 
 namespace {
@@ -166,3 +169,4 @@ TEST(SolverCore, Sha256KnownVectors) {
   h3.update(s.data(), s.size());
   EXPECT_EQ(Sha256::hex(h3.finish()), "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
 }
+}  // namespace solver_core_test

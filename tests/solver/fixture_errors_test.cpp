@@ -22,6 +22,9 @@
 #include "host/solver/fixture_errors.h"
 #include "host/solver/traditional.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace solver_fixture_errors_test {
+
 using namespace imuforge;
 using namespace imuforge::solver;
 using nlohmann::json;
@@ -270,3 +273,4 @@ TEST(FixtureErrorsMode, EstimatesTempRateWithTheThermalModel) {
               worst_rate);
   EXPECT_LT(worst, 5.0);
 }
+}  // namespace solver_fixture_errors_test

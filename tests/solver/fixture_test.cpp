@@ -14,6 +14,9 @@
 #include "host/solver/traditional.h"
 #include "tests/solver/synth.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace solver_fixture_test {
+
 using namespace imuforge;
 using namespace imuforge::solver;
 
@@ -484,3 +487,4 @@ TEST(FixtureMode, PerPlateauLeavesTransitSegmentsOut) {
     EXPECT_LT(std::abs(sol.estimate.value[i] - truth), 5 * sol.estimate.sigma()[i]) << p;
   }
 }
+}  // namespace solver_fixture_test

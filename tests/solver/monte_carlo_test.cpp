@@ -16,6 +16,9 @@
 #include "tests/solver/monte_carlo.h"
 #include "tests/solver/synth.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace solver_monte_carlo_test {
+
 using namespace imuforge;
 using namespace imuforge::solver;
 
@@ -53,3 +56,4 @@ TEST(MonteCarlo, UnbiasedConsistentAndEfficient) {
   std::printf("Monte Carlo: worst |mean error|/(CRB/sqrt(N)) %.2f; RMS error / CRB in [%.3f, %.3f]\n", worst_bias,
               worst_eff_lo, worst_eff_hi);
 }
+}  // namespace solver_monte_carlo_test

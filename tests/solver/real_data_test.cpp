@@ -29,6 +29,9 @@
 #include "host/model/measure.h"
 #include "tests/solver/turn.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace solver_real_data_test {
+
 using namespace imuforge;
 using namespace imuforge::solver;
 
@@ -190,3 +193,4 @@ TEST(ReferenceFreeChecks, RotationCheckSigmaIsPropagatedFromTheGyroScale) {
   cal.covariance.resize(0, 0);  // no covariance: σ unknown, not zero
   EXPECT_TRUE(std::isnan(rotation_check(rec, cal).angle_sigma_deg));
 }
+}  // namespace solver_real_data_test

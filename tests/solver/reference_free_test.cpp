@@ -11,6 +11,9 @@
 #include "host/solver/reference_free.h"
 #include "tests/solver/turn.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace solver_reference_free_test {
+
 using namespace imuforge;
 using namespace imuforge::solver;
 
@@ -110,3 +113,4 @@ TEST(ReferenceFree, RotationCheckRecoversTheAngle) {
   EXPECT_GT(std::abs(rc.angle_nominal_deg - 90.0), 1.0);  // 2 % scale error uncorrected
   EXPECT_GT(rc.axis.x(), 0.999);
 }
+}  // namespace solver_reference_free_test

@@ -17,6 +17,9 @@
 #include "host/physics/campaign.h"
 #include "host/sim/simulator.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace solver_solve_cli_test {
+
 namespace fs = std::filesystem;
 using nlohmann::json;
 using namespace imuforge;
@@ -197,3 +200,4 @@ TEST_F(SolveCli, FixtureToleranceGivesHonestSigmaInBothFixtureModes) {
   EXPECT_EQ(j["fixture_tolerance"]["considered"], fixed);
   for (const auto& p : j["parameters"]) EXPECT_GE(p["sigma"].get<double>(), p["sigma_noise"].get<double>()) << p["name"];
 }
+}  // namespace solver_solve_cli_test
