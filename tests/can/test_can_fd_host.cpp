@@ -18,6 +18,9 @@
 #include "host/vimu/virtual_imu.h"
 #include "tests/can/node_harness.h"
 
+// A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
+namespace can_test_can_fd_host {
+
 using namespace imuforge;
 using namespace std::chrono_literals;
 
@@ -408,3 +411,4 @@ TEST(CanFd, ClientStreamsFdFromTheVirtualImu) {
   }
   old.stop();
 }
+}  // namespace can_test_can_fd_host
