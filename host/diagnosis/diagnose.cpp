@@ -847,8 +847,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     m.N = std::max(m.N, 1e-300);
     R.stoch[ua] = m;
     if (std::getenv("IMUFORGE_DIAG_TRACE"))
-      std::fprintf(stderr, "noise %s: N=%.3g Q=%.3g gm=%.3g/%.3gs flickerB=%.3g K=%.3g (%d pts)\n", axis_name(a), m.N, m.Q, m.gm_sigma,
-                   m.gm_tau_s, m.flicker_B, m.K, m.n_points);
+      std::fprintf(stderr, "noise %s: N=%.3g Q=%.3g gm=%.3g/%.3gs flickerB=%.3g (upper %.3g) K=%.3g (%d pts)\n", axis_name(a), m.N, m.Q, m.gm_sigma,
+                   m.gm_tau_s, m.flicker_B, m.flicker_B_upper, m.K, m.n_points);
     R.rw_prior_var[ua] = m.K * m.K * D_log / 6.0;  // a random walk's offset from its mean over the log
   }
   for (auto& b : blocks) {
@@ -1009,6 +1009,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // ---- The same design aggregated per segment (unit): the gap is scored on withheld whole segments, whose
   // means carry every steady effect with far fewer noise degrees of freedom than blocks.
   std::array<AxisData, kNumAxes> axu;
+  std::vector<double> seg_t, seg_dur;  // per segment (time order): mid time, length (s)
+  std::vector<int> seg_fold;
   {
     std::map<int, std::vector<int>> unit_blocks;
     for (int b = 0; b < B; ++b) unit_blocks[blocks[static_cast<std::size_t>(b)].unit].push_back(b);
@@ -1047,6 +1049,14 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
                                     static_cast<double>(x2.n) / p0.fs, b == b2, t_start, R.rw_prior_var[static_cast<std::size_t>(a)]);
           }
         au.v[u] = std::max(var, 1e-300);
+        if (a == 0) {
+          // Segment as one block for the whitened held-out score: mid time weighted by samples, its length.
+          double tw = 0;
+          for (int b : bl) tw += static_cast<double>(blocks[static_cast<std::size_t>(b)].n) * blocks[static_cast<std::size_t>(b)].t;
+          seg_t.push_back(tw / n);
+          seg_dur.push_back(n / p0.fs);
+          seg_fold.push_back(blocks[static_cast<std::size_t>(bl.front())].fold);
+        }
         au.ne.add_row(blocks[static_cast<std::size_t>(bl.front())].fold, au.X.row(u).transpose(), au.z[u], 1.0 / au.v[u]);
         ++u;
       }
@@ -1093,6 +1103,37 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     return g;
   };
   auto pos = [](double x) { return std::max(x, 0.0); };
+  // Held-out χ² of the withheld segment means, WHITENED in time order under the stochastic model: each
+  // segment's held-out residual (its fold's fit) is judged against what the residuals of the segments before
+  // it predict through the correlated bias states (Kalman innovation), not against its marginal variance.
+  // A slow drift is shared by neighbouring segments of different folds (folds interleave segments in time):
+  // with marginal variances, any smooth regressor (Ṫ, the hysteresis branch, the temperature history) fitted
+  // on the training segments follows the drift and "predicts" the withheld ones, a held-out gain that is only
+  // the drift's autocorrelation. Whitened, that part of the residual is already predicted by the noise model,
+  // so the gain counts only what the drift cannot explain; under the model, E[χ²] = number of segments.
+  auto heldout_white = [&](int a, const std::vector<int>& sel) {
+    const auto& ad = ax[static_cast<std::size_t>(a)];
+    const auto& au = axu[static_cast<std::size_t>(a)];
+    const int U = static_cast<int>(au.z.size());
+    Eigen::MatrixXd r = Eigen::MatrixXd::Zero(U, 1);
+    for (int k = 0; k < folds; ++k) {
+      if (au.ne.fold[static_cast<std::size_t>(k)].n_obs == 0) continue;
+      const Fit f = fit_axis(ad, sel, k);
+      const int p = static_cast<int>(f.kept.size());
+      for (int u = 0; u < U; ++u) {
+        if (seg_fold[static_cast<std::size_t>(u)] != k) continue;
+        double pred = 0;
+        for (int i = 0; i < p; ++i) pred += au.X(u, f.kept[static_cast<std::size_t>(i)]) * f.theta[i];
+        r(u, 0) = au.z[u] - pred;
+      }
+    }
+    Eigen::MatrixXd nu(U, 1);
+    Eigen::VectorXd S(U);
+    whiten_segment(R.stoch[static_cast<std::size_t>(a)], seg_t, seg_dur, r, R.rw_prior_var[static_cast<std::size_t>(a)], nu, S);
+    double chi2 = 0;
+    for (int u = 0; u < U; ++u) chi2 += nu(u, 0) * nu(u, 0) / S[u];
+    return std::make_pair(chi2, U);
+  };
 
   // Compares model `cur` with `cur ∪ effect (s, e)` (forward) and returns the score of the effect.
   // Per axis: admitted new columns (rank check), GLS likelihood ratio on the whitened blocks, held-out χ²
@@ -1126,10 +1167,16 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       HeldOut hc = heldout_axis(ad, axu[static_cast<std::size_t>(a)], sel0, folds);
       // The plain drop of the held-out χ² (noise variance only): a fold fit that extrapolates poorly raises
       // it, so an effect the campaign cannot pin down never earns a gain.
-      ho_gain += hc.chi2 - ha.chi2;
       ho_chi2_aug += ha.chi2;
       ho_n_aug += ha.nb;
-      excess_cur += pos(hc.chi2 - hc.nb);
+      if (o.whiten_heldout) {
+        const auto wa = heldout_white(a, sel), wc = heldout_white(a, sel0);
+        ho_gain += wc.first - wa.first;
+        excess_cur += pos(wc.first - wc.second);
+      } else {
+        ho_gain += hc.chi2 - ha.chi2;
+        excess_cur += pos(hc.chi2 - hc.nb);
+      }
       for (int i = 0; i < static_cast<int>(fa.kept.size()); ++i) {
         const ParamId id = ad.cols[static_cast<std::size_t>(fa.kept[static_cast<std::size_t>(i)])];
         if (cur.count(id) || std::find(eids.begin(), eids.end(), id) == eids.end()) continue;
@@ -1223,6 +1270,12 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   };
 
   R.gap_before = gap_of(model_ids);
+  if (std::getenv("IMUFORGE_DIAG_TRACE"))
+    for (int a = 0; a < kNumAxes; ++a) {
+      const auto w = heldout_white(a, cols_for(ax[static_cast<std::size_t>(a)], model_ids));
+      std::fprintf(stderr, "whitened held-out %s: chi2/dof %.3f (%d segments), marginal %.3f\n", axis_name(a), w.first / w.second, w.second,
+                   R.gap_before.chi2_dof[static_cast<std::size_t>(a)]);
+    }
   std::set<std::pair<int, int>> cur_effects = in_model;
   std::set<ParamId> cur = model_ids;
   // Effects forced in (timing of a sensor whose reference is already re-evaluated at its shifted time).

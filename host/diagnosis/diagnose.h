@@ -81,6 +81,9 @@ struct Options {
   int max_steps = 20;               // forward steps (each followed by a backward pass)
   int max_timing_iterations = 8;    // re-evaluations of the reference at the estimated timing shift
   double min_shrink_pct = 2.0;      // a selected effect must shrink the held-out χ² excess by at least this (%)
+  // The held-out gain and shrink of a candidate are scored on withheld segment residuals whitened in time
+  // order under the stochastic model (drift predicted from the earlier segments), not on marginal variances.
+  bool whiten_heldout = true;
   // A determined magnitude (> 3σ) outside the plausible range (plausible_limit) disqualifies a candidate.
   bool check_plausibility = true;
   // An axis whose held-out χ²/dof (withheld segments) stays above this after selection is "unexplained".

@@ -183,7 +183,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
     noise[axis_name(a)] = {{"Q", num(t.Q)}, {"N", num(t.N)}, {"B", num(t.B)}, {"K", num(t.K)},
                            {"claimed_N", num(r.claimed_N[u])}, {"allan", pts},
                            {"likelihood_model", {{"N", num(m.N)}, {"Q", num(m.Q)}, {"gm_sigma", num(m.gm_sigma)},
-                                                 {"gm_tau_s", num(m.gm_tau_s)}, {"flicker_B", num(m.flicker_B)},
+                                                 {"gm_tau_s", num(m.gm_tau_s)}, {"flicker_B", num(m.flicker_B)}, {"flicker_B_upper", num(m.flicker_B_upper)},
                                                  {"K", num(m.K)}}}};
   }
   j["noise"] = noise;
