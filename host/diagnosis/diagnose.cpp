@@ -1303,6 +1303,58 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         break;
       }
     if (!best) break;
+    // Competing explanations of one signature (scale_asymmetry |u| against scale_nonlinearity u², u³ when the
+    // campaign has few input levels of each sign): the ranking by p-value favours the one with fewer degrees of
+    // freedom, whichever fits better. For each other qualifying candidate of the same sensor with a larger
+    // likelihood ratio, each is re-tested with the other in the model. Both still qualifying: both are present
+    // (the second is added at a later step). Neither qualifying: the data see one signature and cannot say
+    // which effect it is; the one with the larger AIC gain (LR − 2·dof: the expected in-sample gain of the
+    // extra columns removed) is selected and the pair is reported as ambiguous. Only the best one still
+    // qualifying: it stays.
+    CandidateScore swapped;
+    {
+      int m = 0;
+      for (const auto& c : sc) m += c.excitable ? 1 : 0;
+      const double level = o.alpha / std::max(1, m);
+      const auto [bs0, be0] = effect_of(best->sensor, best->effect);
+      const CandidateScore* pick = best;
+      DiagnosisResult::Ambiguity amb;
+      for (const auto& c : sc) {
+        if (&c == best || c.sensor != best->sensor || !c.significant || !(c.lr > best->lr)) continue;
+        const auto [cs_, ce_] = effect_of(c.sensor, c.effect);
+        std::set<ParamId> with_c = cur, with_b = cur;
+        std::set<std::pair<int, int>> e_c = cur_effects, e_b = cur_effects;
+        add_effect(with_c, e_c, cs_, ce_);
+        add_effect(with_b, e_b, bs0, be0);
+        const CandidateScore b_given_c = score_one(with_c, bs0, be0);
+        const CandidateScore c_given_b = score_one(with_b, cs_, ce_);
+        if (qualifies(c_given_b, level) || qualifies(b_given_c, level)) continue;
+        const double aic_b = best->lr - 2.0 * best->dof, aic_c = c.lr - 2.0 * c.dof;
+        const CandidateScore& win = aic_c > aic_b ? c : *best;
+        const CandidateScore& lose = aic_c > aic_b ? *best : c;
+        amb.chosen = win.sensor + "." + win.effect;
+        amb.alternative = lose.sensor + "." + lose.effect;
+        amb.lr_chosen = win.lr;
+        amb.lr_alternative = lose.lr;
+        amb.dof_chosen = win.dof;
+        amb.dof_alternative = lose.dof;
+        amb.delta_aic = std::fabs(aic_c - aic_b);
+        if (aic_c > aic_b) pick = &c;
+        break;
+      }
+      if (!amb.chosen.empty()) {
+        R.ambiguous.push_back(amb);
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.1f", amb.delta_aic);
+        R.warnings.push_back(amb.chosen + " and " + amb.alternative + " explain the same signature on this campaign (neither is " +
+                             "significant once the other is in the model); " + amb.chosen + " is selected: larger AIC gain by " +
+                             buf + " (a campaign with more input levels of both signs separates them)");
+      }
+      if (pick != best) {
+        swapped = *pick;
+        best = &swapped;
+      }
+    }
     const auto [bs, be] = effect_of(best->sensor, best->effect);
     add_effect(cur, cur_effects, bs, be);
     R.selected.push_back(make_step(best->sensor, best->effect, best->p_value, best->lr, cur));

@@ -143,6 +143,12 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                    {"gap_after", gap_json(s.gap_after, &r.gap_before)}});
   j["selected"] = sel;
   j["dropped_by_backward_step"] = r.dropped;
+  nlohmann::json amb = nlohmann::json::array();
+  for (const auto& a : r.ambiguous)
+    amb.push_back({{"chosen", a.chosen}, {"alternative", a.alternative}, {"lr_chosen", num(a.lr_chosen)},
+                   {"lr_alternative", num(a.lr_alternative)}, {"dof_chosen", a.dof_chosen},
+                   {"dof_alternative", a.dof_alternative}, {"delta_aic", num(a.delta_aic)}});
+  j["ambiguous"] = amb;
   // Stochastic terms the static dwells support (each cleared Δχ² > 10 on the Allan curve) and that the
   // likelihood carried: the stochastic sibling of `selected`.
   nlohmann::json ss = nlohmann::json::array();
