@@ -916,33 +916,11 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // ---- Per-axis design.
   std::array<AxisData, kNumAxes> ax;
   const int B = static_cast<int>(blocks.size());
-  for (int a = 0; a < kNumAxes; ++a) {
-    AxisData& ad = ax[static_cast<std::size_t>(a)];
-    ad.axis = a;
-    ad.sensor = a < 3 ? Sensor::kAccel : Sensor::kGyro;
-    const int s = a / 3, j = a % 3;
-    std::vector<int> src_cols;
-    for (int i = 0; i < static_cast<int>(ids[s].size()); ++i) {
-      const auto& pi = model::param_info(ids[s][static_cast<std::size_t>(i)]);
-      if (pi.j == j || pi.j < 0) {
-        ad.cols.push_back(pi.id);
-        src_cols.push_back(i);
-      }
-    }
+  // GLS of one axis under the likelihood's noise model (the flicker at its upper confidence limit).
+  auto whiten_axis = [&](AxisData& ad, const StochasticModel& sm) {
+    const int a = ad.axis;
     const int P = static_cast<int>(ad.cols.size());
-    ad.X.resize(B, P);
-    ad.z.resize(B);
-    ad.v.resize(B);
     ad.ne.reset(folds, P);
-    for (int b = 0; b < B; ++b) {
-      const Block& bl = blocks[static_cast<std::size_t>(b)];
-      for (int c = 0; c < P; ++c) ad.X(b, c) = bl.J[s](j, src_cols[static_cast<std::size_t>(c)]);
-      ad.z[b] = bl.z[a];
-      ad.v[b] = bl.v[a];
-    }
-    ad.Xr = ad.X;
-    ad.zr = ad.z;
-    ad.vr = ad.v;
     // GLS: whiten the block means, in time order over the whole log, by the Kalman filter over the
     // correlated bias states. The bias wander is one process across segments: flicker states of hours
     // carry from one pose to the next, so a pose's offset is judged against its neighbours', not as a
@@ -962,7 +940,6 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         rows(b, 0) = ad.zr[b];
         rows.row(b).tail(P) = ad.Xr.row(b);
       }
-      const StochasticModel& sm = R.stoch[static_cast<std::size_t>(a)];
       const double rw0 = R.rw_prior_var[static_cast<std::size_t>(a)];
       auto sums = [&](const std::vector<char>* missing, Eigen::MatrixXd& H, Eigen::VectorXd& g, double& q) {
         whiten_segment(sm, tm, du, rows, rw0, innov, S, missing);
@@ -1003,6 +980,35 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         fk.cost = tot.cost - qt;
       }
     }
+  };
+  for (int a = 0; a < kNumAxes; ++a) {
+    AxisData& ad = ax[static_cast<std::size_t>(a)];
+    ad.axis = a;
+    ad.sensor = a < 3 ? Sensor::kAccel : Sensor::kGyro;
+    const int s = a / 3, j = a % 3;
+    std::vector<int> src_cols;
+    for (int i = 0; i < static_cast<int>(ids[s].size()); ++i) {
+      const auto& pi = model::param_info(ids[s][static_cast<std::size_t>(i)]);
+      if (pi.j == j || pi.j < 0) {
+        ad.cols.push_back(pi.id);
+        src_cols.push_back(i);
+      }
+    }
+    const int P = static_cast<int>(ad.cols.size());
+    ad.X.resize(B, P);
+    ad.z.resize(B);
+    ad.v.resize(B);
+    ad.ne.reset(folds, P);
+    for (int b = 0; b < B; ++b) {
+      const Block& bl = blocks[static_cast<std::size_t>(b)];
+      for (int c = 0; c < P; ++c) ad.X(b, c) = bl.J[s](j, src_cols[static_cast<std::size_t>(c)]);
+      ad.z[b] = bl.z[a];
+      ad.v[b] = bl.v[a];
+    }
+    ad.Xr = ad.X;
+    ad.zr = ad.z;
+    ad.vr = ad.v;
+    whiten_axis(ad, R.stoch[static_cast<std::size_t>(a)]);
     // The folds were set as complements of exact training runs (above), not summed rows: no finish().
   }
 
@@ -1352,6 +1358,14 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       }
       if (pick != best) {
         swapped = *pick;
+        // "Best first": the ranking of the first step follows the same choice (the chosen one just ahead of
+        // the one it displaced).
+        if (step == 0) {
+          auto same = [](const CandidateScore& x, const CandidateScore& y) { return x.sensor == y.sensor && x.effect == y.effect; };
+          auto ib = std::find_if(R.ranking.begin(), R.ranking.end(), [&](const CandidateScore& x) { return same(x, *best); });
+          auto ip = std::find_if(R.ranking.begin(), R.ranking.end(), [&](const CandidateScore& x) { return same(x, swapped); });
+          if (ib != R.ranking.end() && ip != R.ranking.end() && ip > ib) std::rotate(ib, ip, ip + 1);
+        }
         best = &swapped;
       }
     }

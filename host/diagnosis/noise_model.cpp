@@ -34,10 +34,10 @@ double StochasticModel::avar(double tau_s) const {
          bank_sigma * bank_sigma * flicker_bank_avar(tau_s, bank_tau_s) + K * K * tau_s / 3.0;
 }
 
-std::vector<std::pair<double, double>> StochasticModel::gm_states() const {
+std::vector<std::pair<double, double>> StochasticModel::gm_states(bool upper_limit) const {
   std::vector<std::pair<double, double>> out;
   if (gm_tau_s > 0 && gm_sigma > 0) out.push_back({gm_sigma * gm_sigma, gm_tau_s});
-  const double bs = std::max(bank_sigma, bank_sigma_lik);
+  const double bs = upper_limit ? std::max(bank_sigma, bank_sigma_lik) : bank_sigma;
   if (bs > 0)
     for (double T : bank_tau_s) out.push_back({bs * bs, T});
   return out;
@@ -278,7 +278,9 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
 double block_covariance(const StochasticModel& m, double ti, double di, double tj, double dj, bool same, double t_start,
                         double rw_prior_var) {
   double c = 0;
-  for (const auto& [s2, T] : m.gm_states()) {
+  // The point estimate: what the noise floor and the held-out variances are judged against (the upper limit
+  // is the likelihood's guard against drift, not a claim about the floor).
+  for (const auto& [s2, T] : m.gm_states(false)) {
     double ai = 1, vi = 1, aj = 1, vj = 1;
     gm_block(std::max(di, 1e-9), T, ai, vi);
     gm_block(std::max(dj, 1e-9), T, aj, vj);

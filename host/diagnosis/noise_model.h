@@ -45,9 +45,10 @@ struct StochasticModel {
   // Variance of the mean of white + quantization noise over tau_s (what a block mean carries
   // independently of its neighbours).
   double white_var(double tau_s) const;
-  // Every Gauss-Markov state of the likelihood model (the single GM first, then the flicker bank at
-  // bank_sigma_lik): {σ², T}.
-  std::vector<std::pair<double, double>> gm_states() const;
+  // Every Gauss-Markov state (the single GM first, then the flicker bank): {σ², T}. upper_limit: the bank at
+  // bank_sigma_lik (the likelihood: GLS whitening), else at the point estimate bank_sigma (the variance of a
+  // block or segment mean: noise floors, held-out χ², cells).
+  std::vector<std::pair<double, double>> gm_states(bool upper_limit = true) const;
 };
 
 // Correlation times of a flicker bank spanning [T_lo, T_hi] (factor 4 apart, both ends covered).
