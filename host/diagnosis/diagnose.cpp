@@ -1232,6 +1232,62 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   auto qualifies = [&](const CandidateScore& c, double level) {
     return c.excitable && c.p_value < level && c.heldout_chi2_gain > 2.0 * c.dof && c.heldout_shrink_pct >= o.min_shrink_pct;
   };
+  // temp_rate is an output offset ∝ Ṫ: the same coefficient on heating and on cooling ramps. A slow bias wander
+  // that happens to run along one ramp (the final 20 °C ramp of a blind log is one-way) gives a coefficient on
+  // that ramp's sign only. Per axis, the Ṫ column is split by its sign (blocks are cut at 0.5 °C, so one block
+  // is on one side), the model refitted by GLS under the likelihood's noise model, and the two coefficients
+  // compared (Wald, one dof per axis). Returns the p-value of "equal" (−1: not testable, e.g. one-way only).
+  auto heat_cool_p = [&](const std::set<ParamId>& cur, Sensor s) {
+    double W = 0;
+    int dof = 0;
+    const std::vector<ParamId> tr = model::effect_params(s, Effect::kTempRate);
+    for (int a = s == Sensor::kAccel ? 0 : 3, e = a + 3; a < e; ++a) {
+      const AxisData& ad = ax[static_cast<std::size_t>(a)];
+      int c_tr = -1;
+      for (int i = 0; i < static_cast<int>(ad.cols.size()); ++i)
+        if (std::find(tr.begin(), tr.end(), ad.cols[static_cast<std::size_t>(i)]) != tr.end()) c_tr = i;
+      if (c_tr < 0) continue;
+      const Fit f0 = fit_axis(ad, cols_for(ad, cur), -1);  // the admitted model columns (rank-checked)
+      const int P = static_cast<int>(f0.kept.size());
+      Eigen::MatrixXd rows(B, P + 3), innov(B, P + 3);
+      Eigen::VectorXd S(B);
+      std::vector<double> tm(static_cast<std::size_t>(B)), du(static_cast<std::size_t>(B));
+      double e_pos = 0, e_neg = 0;
+      for (int b = 0; b < B; ++b) {
+        const Block& bl = blocks[static_cast<std::size_t>(b)];
+        tm[static_cast<std::size_t>(b)] = bl.t;
+        du[static_cast<std::size_t>(b)] = static_cast<double>(bl.n) / p0.fs;
+        rows(b, 0) = ad.zr[b];
+        for (int i = 0; i < P; ++i) rows(b, 1 + i) = ad.Xr(b, f0.kept[static_cast<std::size_t>(i)]);
+        const double x = ad.Xr(b, c_tr);
+        rows(b, P + 1) = std::max(x, 0.0);
+        rows(b, P + 2) = std::min(x, 0.0);
+        e_pos += x > 0 ? x * x : 0.0;
+        e_neg += x < 0 ? x * x : 0.0;
+      }
+      if (!(e_pos > 0) || !(e_neg > 0)) continue;
+      whiten_segment(R.stoch[static_cast<std::size_t>(a)], tm, du, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S);
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(P + 2, P + 2);
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(P + 2);
+      for (int b = 0; b < B; ++b) {
+        const Eigen::VectorXd x = innov.row(b).tail(P + 2).transpose();
+        H += x * x.transpose() / S[b];
+        g += x * innov(b, 0) / S[b];
+      }
+      const Eigen::VectorXd sc = H.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+      const Eigen::MatrixXd Hs = sc.asDiagonal() * H * sc.asDiagonal();
+      Eigen::LDLT<Eigen::MatrixXd> ldlt(Hs);
+      if (ldlt.info() != Eigen::Success) continue;
+      const Eigen::VectorXd th = sc.asDiagonal() * ldlt.solve(sc.asDiagonal() * g);
+      const Eigen::MatrixXd cov = sc.asDiagonal() * ldlt.solve(Eigen::MatrixXd::Identity(P + 2, P + 2)) * sc.asDiagonal();
+      const double d = th[P] - th[P + 1];
+      const double v = cov(P, P) + cov(P + 1, P + 1) - 2.0 * cov(P, P + 1);
+      if (!(v > 0) || !std::isfinite(d)) continue;
+      W += d * d / v;
+      ++dof;
+    }
+    return dof > 0 ? chi2_sf(W, dof) : -1.0;
+  };
   auto score_all = [&](const std::set<ParamId>& cur, const std::set<std::pair<int, int>>& cur_effects) {
     std::vector<CandidateScore> out;
     for (auto [s, e] : candidates) {
@@ -1241,7 +1297,13 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     int m = 0;
     for (const auto& c : out) m += c.excitable ? 1 : 0;
     const double level = o.alpha / std::max(1, m);
-    for (auto& c : out) c.significant = qualifies(c, level) && c.implausible.empty();
+    for (auto& c : out) {
+      c.significant = qualifies(c, level) && c.implausible.empty();
+      if (c.significant && c.effect == model::effect_info(Effect::kTempRate).name) {
+        c.heat_cool_p = heat_cool_p(cur, c.sensor == "accel" ? Sensor::kAccel : Sensor::kGyro);
+        if (c.heat_cool_p >= 0 && c.heat_cool_p < 0.01) c.significant = false;
+      }
+    }
     std::stable_sort(out.begin(), out.end(), [](const CandidateScore& x, const CandidateScore& y) {
       if (x.excitable != y.excitable) return x.excitable;
       return x.score > y.score;

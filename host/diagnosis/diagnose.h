@@ -149,6 +149,9 @@ struct CandidateScore {
   std::vector<ParamEstimate> magnitude;
   std::vector<std::string> implausible;  // components outside the plausible range (docs/error-model.md): flagged
   std::vector<double> min_detectable;  // 5σ of each kept component (what the campaign could have seen)
+  // temp_rate only: p-value of "the Ṫ coefficient is the same on heating and on cooling" (GLS Wald test);
+  // −1 = not tested. Below 0.01 the candidate is not significant (a drift along one ramp, not a rate effect).
+  double heat_cool_p = -1;
 };
 
 struct StochasticScore {

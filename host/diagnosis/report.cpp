@@ -130,6 +130,11 @@ nlohmann::json to_json(const DiagnosisResult& r) {
       e["note"] = "cannot be excited by this campaign: cannot be ruled out";
     }
     if (!c.not_excitable.empty()) e["not_excitable"] = c.not_excitable;
+    if (c.heat_cool_p >= 0) {
+      e["heating_cooling_p"] = num(c.heat_cool_p);
+      if (c.heat_cool_p < 0.01)
+        e["note"] = "the rate coefficient differs between heating and cooling: a drift along one ramp, not a temp_rate effect";
+    }
     if (!c.implausible.empty()) {
       e["implausible"] = c.implausible;
       e["note"] = "magnitude outside the plausible range of docs/error-model.md: flagged, not a finding";
