@@ -1,6 +1,6 @@
 // The diagnosis pipeline (docs/diagnosis.md): pass 0 (noise, reference), pass 1 (block means at the
 // possibly shifted time), the whitened per-axis design, folds, forward–backward selection, the
-// unexplained verdict, the final joint fit, cells and plot data. One piece, ~1,700 lines, because every
+// unexplained verdict, the final joint fit, cells and plot data. One piece, ~1,900 lines, because every
 // stage reads the same per-axis design and fold statistics (AxisData) and the time-shift iteration
 // re-runs the whole chain; splitting it would pass that state through a dozen signatures. The fits and
 // held-out scores themselves live in host/estimator (shared with the solver); the noise model in
@@ -847,8 +847,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     m.N = std::max(m.N, 1e-300);
     R.stoch[ua] = m;
     if (std::getenv("IMUFORGE_DIAG_TRACE"))
-      std::fprintf(stderr, "noise %s: N=%.3g Q=%.3g gm=%.3g/%.3gs flickerB=%.3g K=%.3g (%d pts)\n", axis_name(a), m.N, m.Q, m.gm_sigma,
-                   m.gm_tau_s, m.flicker_B, m.K, m.n_points);
+      std::fprintf(stderr, "noise %s: N=%.3g Q=%.3g gm=%.3g/%.3gs flickerB=%.3g (upper %.3g) K=%.3g (%d pts)\n", axis_name(a), m.N, m.Q, m.gm_sigma,
+                   m.gm_tau_s, m.flicker_B, m.flicker_B_upper, m.K, m.n_points);
     R.rw_prior_var[ua] = m.K * m.K * D_log / 6.0;  // a random walk's offset from its mean over the log
   }
   for (auto& b : blocks) {
@@ -916,33 +916,11 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // ---- Per-axis design.
   std::array<AxisData, kNumAxes> ax;
   const int B = static_cast<int>(blocks.size());
-  for (int a = 0; a < kNumAxes; ++a) {
-    AxisData& ad = ax[static_cast<std::size_t>(a)];
-    ad.axis = a;
-    ad.sensor = a < 3 ? Sensor::kAccel : Sensor::kGyro;
-    const int s = a / 3, j = a % 3;
-    std::vector<int> src_cols;
-    for (int i = 0; i < static_cast<int>(ids[s].size()); ++i) {
-      const auto& pi = model::param_info(ids[s][static_cast<std::size_t>(i)]);
-      if (pi.j == j || pi.j < 0) {
-        ad.cols.push_back(pi.id);
-        src_cols.push_back(i);
-      }
-    }
+  // GLS of one axis under the likelihood's noise model (the flicker at its upper confidence limit).
+  auto whiten_axis = [&](AxisData& ad, const StochasticModel& sm) {
+    const int a = ad.axis;
     const int P = static_cast<int>(ad.cols.size());
-    ad.X.resize(B, P);
-    ad.z.resize(B);
-    ad.v.resize(B);
     ad.ne.reset(folds, P);
-    for (int b = 0; b < B; ++b) {
-      const Block& bl = blocks[static_cast<std::size_t>(b)];
-      for (int c = 0; c < P; ++c) ad.X(b, c) = bl.J[s](j, src_cols[static_cast<std::size_t>(c)]);
-      ad.z[b] = bl.z[a];
-      ad.v[b] = bl.v[a];
-    }
-    ad.Xr = ad.X;
-    ad.zr = ad.z;
-    ad.vr = ad.v;
     // GLS: whiten the block means, in time order over the whole log, by the Kalman filter over the
     // correlated bias states. The bias wander is one process across segments: flicker states of hours
     // carry from one pose to the next, so a pose's offset is judged against its neighbours', not as a
@@ -962,7 +940,6 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         rows(b, 0) = ad.zr[b];
         rows.row(b).tail(P) = ad.Xr.row(b);
       }
-      const StochasticModel& sm = R.stoch[static_cast<std::size_t>(a)];
       const double rw0 = R.rw_prior_var[static_cast<std::size_t>(a)];
       auto sums = [&](const std::vector<char>* missing, Eigen::MatrixXd& H, Eigen::VectorXd& g, double& q) {
         whiten_segment(sm, tm, du, rows, rw0, innov, S, missing);
@@ -1003,12 +980,43 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         fk.cost = tot.cost - qt;
       }
     }
+  };
+  for (int a = 0; a < kNumAxes; ++a) {
+    AxisData& ad = ax[static_cast<std::size_t>(a)];
+    ad.axis = a;
+    ad.sensor = a < 3 ? Sensor::kAccel : Sensor::kGyro;
+    const int s = a / 3, j = a % 3;
+    std::vector<int> src_cols;
+    for (int i = 0; i < static_cast<int>(ids[s].size()); ++i) {
+      const auto& pi = model::param_info(ids[s][static_cast<std::size_t>(i)]);
+      if (pi.j == j || pi.j < 0) {
+        ad.cols.push_back(pi.id);
+        src_cols.push_back(i);
+      }
+    }
+    const int P = static_cast<int>(ad.cols.size());
+    ad.X.resize(B, P);
+    ad.z.resize(B);
+    ad.v.resize(B);
+    ad.ne.reset(folds, P);
+    for (int b = 0; b < B; ++b) {
+      const Block& bl = blocks[static_cast<std::size_t>(b)];
+      for (int c = 0; c < P; ++c) ad.X(b, c) = bl.J[s](j, src_cols[static_cast<std::size_t>(c)]);
+      ad.z[b] = bl.z[a];
+      ad.v[b] = bl.v[a];
+    }
+    ad.Xr = ad.X;
+    ad.zr = ad.z;
+    ad.vr = ad.v;
+    whiten_axis(ad, R.stoch[static_cast<std::size_t>(a)]);
     // The folds were set as complements of exact training runs (above), not summed rows: no finish().
   }
 
   // ---- The same design aggregated per segment (unit): the gap is scored on withheld whole segments, whose
   // means carry every steady effect with far fewer noise degrees of freedom than blocks.
   std::array<AxisData, kNumAxes> axu;
+  std::vector<double> seg_t, seg_dur;  // per segment (time order): mid time, length (s)
+  std::vector<int> seg_fold;
   {
     std::map<int, std::vector<int>> unit_blocks;
     for (int b = 0; b < B; ++b) unit_blocks[blocks[static_cast<std::size_t>(b)].unit].push_back(b);
@@ -1047,6 +1055,14 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
                                     static_cast<double>(x2.n) / p0.fs, b == b2, t_start, R.rw_prior_var[static_cast<std::size_t>(a)]);
           }
         au.v[u] = std::max(var, 1e-300);
+        if (a == 0) {
+          // Segment as one block for the whitened held-out score: mid time weighted by samples, its length.
+          double tw = 0;
+          for (int b : bl) tw += static_cast<double>(blocks[static_cast<std::size_t>(b)].n) * blocks[static_cast<std::size_t>(b)].t;
+          seg_t.push_back(tw / n);
+          seg_dur.push_back(n / p0.fs);
+          seg_fold.push_back(blocks[static_cast<std::size_t>(bl.front())].fold);
+        }
         au.ne.add_row(blocks[static_cast<std::size_t>(bl.front())].fold, au.X.row(u).transpose(), au.z[u], 1.0 / au.v[u]);
         ++u;
       }
@@ -1093,6 +1109,37 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     return g;
   };
   auto pos = [](double x) { return std::max(x, 0.0); };
+  // Held-out χ² of the withheld segment means, WHITENED in time order under the stochastic model: each
+  // segment's held-out residual (its fold's fit) is judged against what the residuals of the segments before
+  // it predict through the correlated bias states (Kalman innovation), not against its marginal variance.
+  // A slow drift is shared by neighbouring segments of different folds (folds interleave segments in time):
+  // with marginal variances, any smooth regressor (Ṫ, the hysteresis branch, the temperature history) fitted
+  // on the training segments follows the drift and "predicts" the withheld ones, a held-out gain that is only
+  // the drift's autocorrelation. Whitened, that part of the residual is already predicted by the noise model,
+  // so the gain counts only what the drift cannot explain; under the model, E[χ²] = number of segments.
+  auto heldout_white = [&](int a, const std::vector<int>& sel) {
+    const auto& ad = ax[static_cast<std::size_t>(a)];
+    const auto& au = axu[static_cast<std::size_t>(a)];
+    const int U = static_cast<int>(au.z.size());
+    Eigen::MatrixXd r = Eigen::MatrixXd::Zero(U, 1);
+    for (int k = 0; k < folds; ++k) {
+      if (au.ne.fold[static_cast<std::size_t>(k)].n_obs == 0) continue;
+      const Fit f = fit_axis(ad, sel, k);
+      const int p = static_cast<int>(f.kept.size());
+      for (int u = 0; u < U; ++u) {
+        if (seg_fold[static_cast<std::size_t>(u)] != k) continue;
+        double pred = 0;
+        for (int i = 0; i < p; ++i) pred += au.X(u, f.kept[static_cast<std::size_t>(i)]) * f.theta[i];
+        r(u, 0) = au.z[u] - pred;
+      }
+    }
+    Eigen::MatrixXd nu(U, 1);
+    Eigen::VectorXd S(U);
+    whiten_segment(R.stoch[static_cast<std::size_t>(a)], seg_t, seg_dur, r, R.rw_prior_var[static_cast<std::size_t>(a)], nu, S);
+    double chi2 = 0;
+    for (int u = 0; u < U; ++u) chi2 += nu(u, 0) * nu(u, 0) / S[u];
+    return std::make_pair(chi2, U);
+  };
 
   // Compares model `cur` with `cur ∪ effect (s, e)` (forward) and returns the score of the effect.
   // Per axis: admitted new columns (rank check), GLS likelihood ratio on the whitened blocks, held-out χ²
@@ -1126,10 +1173,16 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       HeldOut hc = heldout_axis(ad, axu[static_cast<std::size_t>(a)], sel0, folds);
       // The plain drop of the held-out χ² (noise variance only): a fold fit that extrapolates poorly raises
       // it, so an effect the campaign cannot pin down never earns a gain.
-      ho_gain += hc.chi2 - ha.chi2;
       ho_chi2_aug += ha.chi2;
       ho_n_aug += ha.nb;
-      excess_cur += pos(hc.chi2 - hc.nb);
+      if (o.whiten_heldout) {
+        const auto wa = heldout_white(a, sel), wc = heldout_white(a, sel0);
+        ho_gain += wc.first - wa.first;
+        excess_cur += pos(wc.first - wc.second);
+      } else {
+        ho_gain += hc.chi2 - ha.chi2;
+        excess_cur += pos(hc.chi2 - hc.nb);
+      }
       for (int i = 0; i < static_cast<int>(fa.kept.size()); ++i) {
         const ParamId id = ad.cols[static_cast<std::size_t>(fa.kept[static_cast<std::size_t>(i)])];
         if (cur.count(id) || std::find(eids.begin(), eids.end(), id) == eids.end()) continue;
@@ -1179,6 +1232,62 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   auto qualifies = [&](const CandidateScore& c, double level) {
     return c.excitable && c.p_value < level && c.heldout_chi2_gain > 2.0 * c.dof && c.heldout_shrink_pct >= o.min_shrink_pct;
   };
+  // temp_rate is an output offset ∝ Ṫ: the same coefficient on heating and on cooling ramps. A slow bias wander
+  // that happens to run along one ramp (the final 20 °C ramp of a blind log is one-way) gives a coefficient on
+  // that ramp's sign only. Per axis, the Ṫ column is split by its sign (blocks are cut at 0.5 °C, so one block
+  // is on one side), the model refitted by GLS under the likelihood's noise model, and the two coefficients
+  // compared (Wald, one dof per axis). Returns the p-value of "equal" (−1: not testable, e.g. one-way only).
+  auto heat_cool_p = [&](const std::set<ParamId>& cur, Sensor s) {
+    double W = 0;
+    int dof = 0;
+    const std::vector<ParamId> tr = model::effect_params(s, Effect::kTempRate);
+    for (int a = s == Sensor::kAccel ? 0 : 3, e = a + 3; a < e; ++a) {
+      const AxisData& ad = ax[static_cast<std::size_t>(a)];
+      int c_tr = -1;
+      for (int i = 0; i < static_cast<int>(ad.cols.size()); ++i)
+        if (std::find(tr.begin(), tr.end(), ad.cols[static_cast<std::size_t>(i)]) != tr.end()) c_tr = i;
+      if (c_tr < 0) continue;
+      const Fit f0 = fit_axis(ad, cols_for(ad, cur), -1);  // the admitted model columns (rank-checked)
+      const int P = static_cast<int>(f0.kept.size());
+      Eigen::MatrixXd rows(B, P + 3), innov(B, P + 3);
+      Eigen::VectorXd S(B);
+      std::vector<double> tm(static_cast<std::size_t>(B)), du(static_cast<std::size_t>(B));
+      double e_pos = 0, e_neg = 0;
+      for (int b = 0; b < B; ++b) {
+        const Block& bl = blocks[static_cast<std::size_t>(b)];
+        tm[static_cast<std::size_t>(b)] = bl.t;
+        du[static_cast<std::size_t>(b)] = static_cast<double>(bl.n) / p0.fs;
+        rows(b, 0) = ad.zr[b];
+        for (int i = 0; i < P; ++i) rows(b, 1 + i) = ad.Xr(b, f0.kept[static_cast<std::size_t>(i)]);
+        const double x = ad.Xr(b, c_tr);
+        rows(b, P + 1) = std::max(x, 0.0);
+        rows(b, P + 2) = std::min(x, 0.0);
+        e_pos += x > 0 ? x * x : 0.0;
+        e_neg += x < 0 ? x * x : 0.0;
+      }
+      if (!(e_pos > 0) || !(e_neg > 0)) continue;
+      whiten_segment(R.stoch[static_cast<std::size_t>(a)], tm, du, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S);
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(P + 2, P + 2);
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(P + 2);
+      for (int b = 0; b < B; ++b) {
+        const Eigen::VectorXd x = innov.row(b).tail(P + 2).transpose();
+        H += x * x.transpose() / S[b];
+        g += x * innov(b, 0) / S[b];
+      }
+      const Eigen::VectorXd sc = H.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+      const Eigen::MatrixXd Hs = sc.asDiagonal() * H * sc.asDiagonal();
+      Eigen::LDLT<Eigen::MatrixXd> ldlt(Hs);
+      if (ldlt.info() != Eigen::Success) continue;
+      const Eigen::VectorXd th = sc.asDiagonal() * ldlt.solve(sc.asDiagonal() * g);
+      const Eigen::MatrixXd cov = sc.asDiagonal() * ldlt.solve(Eigen::MatrixXd::Identity(P + 2, P + 2)) * sc.asDiagonal();
+      const double d = th[P] - th[P + 1];
+      const double v = cov(P, P) + cov(P + 1, P + 1) - 2.0 * cov(P, P + 1);
+      if (!(v > 0) || !std::isfinite(d)) continue;
+      W += d * d / v;
+      ++dof;
+    }
+    return dof > 0 ? chi2_sf(W, dof) : -1.0;
+  };
   auto score_all = [&](const std::set<ParamId>& cur, const std::set<std::pair<int, int>>& cur_effects) {
     std::vector<CandidateScore> out;
     for (auto [s, e] : candidates) {
@@ -1188,7 +1297,13 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     int m = 0;
     for (const auto& c : out) m += c.excitable ? 1 : 0;
     const double level = o.alpha / std::max(1, m);
-    for (auto& c : out) c.significant = qualifies(c, level) && c.implausible.empty();
+    for (auto& c : out) {
+      c.significant = qualifies(c, level) && c.implausible.empty();
+      if (c.significant && c.effect == model::effect_info(Effect::kTempRate).name) {
+        c.heat_cool_p = heat_cool_p(cur, c.sensor == "accel" ? Sensor::kAccel : Sensor::kGyro);
+        if (c.heat_cool_p >= 0 && c.heat_cool_p < 0.01) c.significant = false;
+      }
+    }
     std::stable_sort(out.begin(), out.end(), [](const CandidateScore& x, const CandidateScore& y) {
       if (x.excitable != y.excitable) return x.excitable;
       return x.score > y.score;
@@ -1223,6 +1338,12 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   };
 
   R.gap_before = gap_of(model_ids);
+  if (std::getenv("IMUFORGE_DIAG_TRACE"))
+    for (int a = 0; a < kNumAxes; ++a) {
+      const auto w = heldout_white(a, cols_for(ax[static_cast<std::size_t>(a)], model_ids));
+      std::fprintf(stderr, "whitened held-out %s: chi2/dof %.3f (%d segments), marginal %.3f\n", axis_name(a), w.first / w.second, w.second,
+                   R.gap_before.chi2_dof[static_cast<std::size_t>(a)]);
+    }
   std::set<std::pair<int, int>> cur_effects = in_model;
   std::set<ParamId> cur = model_ids;
   // Effects forced in (timing of a sensor whose reference is already re-evaluated at its shifted time).
@@ -1250,6 +1371,66 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         break;
       }
     if (!best) break;
+    // Competing explanations of one signature (scale_asymmetry |u| against scale_nonlinearity u², u³ when the
+    // campaign has few input levels of each sign): the ranking by p-value favours the one with fewer degrees of
+    // freedom, whichever fits better. For each other qualifying candidate of the same sensor with a larger
+    // likelihood ratio, each is re-tested with the other in the model. Both still qualifying: both are present
+    // (the second is added at a later step). Neither qualifying: the data see one signature and cannot say
+    // which effect it is; the one with the larger AIC gain (LR − 2·dof: the expected in-sample gain of the
+    // extra columns removed) is selected and the pair is reported as ambiguous. Only the best one still
+    // qualifying: it stays.
+    CandidateScore swapped;
+    {
+      int m = 0;
+      for (const auto& c : sc) m += c.excitable ? 1 : 0;
+      const double level = o.alpha / std::max(1, m);
+      const auto [bs0, be0] = effect_of(best->sensor, best->effect);
+      const CandidateScore* pick = best;
+      DiagnosisResult::Ambiguity amb;
+      for (const auto& c : sc) {
+        if (&c == best || c.sensor != best->sensor || !c.significant || !(c.lr > best->lr)) continue;
+        const auto [cs_, ce_] = effect_of(c.sensor, c.effect);
+        std::set<ParamId> with_c = cur, with_b = cur;
+        std::set<std::pair<int, int>> e_c = cur_effects, e_b = cur_effects;
+        add_effect(with_c, e_c, cs_, ce_);
+        add_effect(with_b, e_b, bs0, be0);
+        const CandidateScore b_given_c = score_one(with_c, bs0, be0);
+        const CandidateScore c_given_b = score_one(with_b, cs_, ce_);
+        if (qualifies(c_given_b, level) || qualifies(b_given_c, level)) continue;
+        const double aic_b = best->lr - 2.0 * best->dof, aic_c = c.lr - 2.0 * c.dof;
+        const CandidateScore& win = aic_c > aic_b ? c : *best;
+        const CandidateScore& lose = aic_c > aic_b ? *best : c;
+        amb.chosen = win.sensor + "." + win.effect;
+        amb.alternative = lose.sensor + "." + lose.effect;
+        amb.lr_chosen = win.lr;
+        amb.lr_alternative = lose.lr;
+        amb.dof_chosen = win.dof;
+        amb.dof_alternative = lose.dof;
+        amb.delta_aic = std::fabs(aic_c - aic_b);
+        if (aic_c > aic_b) pick = &c;
+        break;
+      }
+      if (!amb.chosen.empty()) {
+        R.ambiguous.push_back(amb);
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.1f", amb.delta_aic);
+        R.warnings.push_back(amb.chosen + " and " + amb.alternative + " explain the same signature on this campaign (neither is " +
+                             "significant once the other is in the model); " + amb.chosen + " is selected: larger AIC gain by " +
+                             buf + " (a campaign with more input levels of both signs separates them)");
+      }
+      if (pick != best) {
+        swapped = *pick;
+        // "Best first": the ranking of the first step follows the same choice (the chosen one just ahead of
+        // the one it displaced).
+        if (step == 0) {
+          auto same = [](const CandidateScore& x, const CandidateScore& y) { return x.sensor == y.sensor && x.effect == y.effect; };
+          auto ib = std::find_if(R.ranking.begin(), R.ranking.end(), [&](const CandidateScore& x) { return same(x, *best); });
+          auto ip = std::find_if(R.ranking.begin(), R.ranking.end(), [&](const CandidateScore& x) { return same(x, swapped); });
+          if (ib != R.ranking.end() && ip != R.ranking.end() && ip > ib) std::rotate(ib, ip, ip + 1);
+        }
+        best = &swapped;
+      }
+    }
     const auto [bs, be] = effect_of(best->sensor, best->effect);
     add_effect(cur, cur_effects, bs, be);
     R.selected.push_back(make_step(best->sensor, best->effect, best->p_value, best->lr, cur));

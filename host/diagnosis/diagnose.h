@@ -81,6 +81,11 @@ struct Options {
   int max_steps = 20;               // forward steps (each followed by a backward pass)
   int max_timing_iterations = 8;    // re-evaluations of the reference at the estimated timing shift
   double min_shrink_pct = 2.0;      // a selected effect must shrink the held-out χ² excess by at least this (%)
+  // Score a candidate's held-out gain and shrink on withheld segment residuals whitened in time order under
+  // the stochastic model (drift predicted from the earlier segments) instead of on their marginal variances.
+  // Off by default: measured on the 112 blind cases it removes no false pick the flicker upper limit leaves,
+  // adds one (stoch-consumer-0) and loses slow true effects (docs/diagnosis.md, "Thermal false picks").
+  bool whiten_heldout = false;
   // A determined magnitude (> 3σ) outside the plausible range (plausible_limit) disqualifies a candidate.
   bool check_plausibility = true;
   // An axis whose held-out χ²/dof (withheld segments) stays above this after selection is "unexplained".
@@ -144,6 +149,9 @@ struct CandidateScore {
   std::vector<ParamEstimate> magnitude;
   std::vector<std::string> implausible;  // components outside the plausible range (docs/error-model.md): flagged
   std::vector<double> min_detectable;  // 5σ of each kept component (what the campaign could have seen)
+  // temp_rate only: p-value of "the Ṫ coefficient is the same on heating and on cooling" (GLS Wald test);
+  // −1 = not tested. Below 0.01 the candidate is not significant (a drift along one ramp, not a rate effect).
+  double heat_cool_p = -1;
 };
 
 struct StochasticScore {
@@ -208,6 +216,15 @@ struct DiagnosisResult {
   std::vector<CandidateScore> ranking;     // step-0 ranking, best first
   std::vector<Step> selected;
   std::vector<std::string> dropped;        // effects removed again by a backward step ("gyro.g_sensitivity")
+  // Pairs of candidates of one sensor that explain the same signature (neither qualifies once the other is
+  // in the model): the one with the larger AIC gain (LR − 2·dof) is selected, the other is named here.
+  struct Ambiguity {
+    std::string chosen, alternative;  // "accel.scale_nonlinearity"
+    double lr_chosen = 0, lr_alternative = 0;
+    int dof_chosen = 0, dof_alternative = 0;
+    double delta_aic = 0;             // AIC gain of chosen − alternative (≥ 0)
+  };
+  std::vector<Ambiguity> ambiguous;
   std::vector<Unexplained> unexplained;
   std::set<model::ParamId> final_ids;      // parameters of the final model (base + selected)
   std::array<double, 2> timing_shift_latency_s{}, timing_shift_ppm{};  // reference re-evaluated at this shift

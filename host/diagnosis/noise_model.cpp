@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 namespace imuforge::diagnosis {
@@ -33,11 +34,12 @@ double StochasticModel::avar(double tau_s) const {
          bank_sigma * bank_sigma * flicker_bank_avar(tau_s, bank_tau_s) + K * K * tau_s / 3.0;
 }
 
-std::vector<std::pair<double, double>> StochasticModel::gm_states() const {
+std::vector<std::pair<double, double>> StochasticModel::gm_states(bool upper_limit) const {
   std::vector<std::pair<double, double>> out;
   if (gm_tau_s > 0 && gm_sigma > 0) out.push_back({gm_sigma * gm_sigma, gm_tau_s});
-  if (bank_sigma > 0)
-    for (double T : bank_tau_s) out.push_back({bank_sigma * bank_sigma, T});
+  const double bs = upper_limit ? std::max(bank_sigma, bank_sigma_lik) : bank_sigma;
+  if (bs > 0)
+    for (double T : bank_tau_s) out.push_back({bs * bs, T});
   return out;
 }
 
@@ -45,6 +47,78 @@ double StochasticModel::white_var(double tau_s) const {
   // Mean of white noise over τ: N²/τ; quantization (uniform, rounding per sample) shrinks like white at
   // the sample level and is reported by its Allan term 3Q²/τ², which is the variance of a mean over τ too.
   return N * N / tau_s + 3.0 * Q * Q / (tau_s * tau_s);
+}
+
+namespace {
+// Allan χ² of the model with the flicker bank's variance fixed at cb and the other terms of `m` (N always,
+// Q, GM, K when the chosen model has them) refitted non-negatively: the profile over the nuisance terms.
+double profile_chi2(const std::vector<AllanAccumulator::Point>& pts, const StochasticModel& m, const std::vector<double>& bank,
+                    double cb) {
+  std::vector<std::function<double(double)>> basis;
+  basis.push_back([](double tau) { return 1.0 / tau; });
+  if (m.Q > 0) basis.push_back([](double tau) { return 3.0 / (tau * tau); });
+  if (m.gm_sigma > 0) {
+    const double T = m.gm_tau_s;
+    basis.push_back([T](double tau) { return gauss_markov_avar(tau, T); });
+  }
+  if (m.K > 0) basis.push_back([](double tau) { return tau / 3.0; });
+  const int p = static_cast<int>(basis.size());
+  std::vector<double> fl(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) fl[i] = cb * flicker_bank_avar(pts[i].tau_s, bank);
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(p);
+  auto model_at = [&](std::size_t i) {
+    double f = fl[i];
+    for (int j = 0; j < p; ++j) f += c[j] * basis[static_cast<std::size_t>(j)](pts[i].tau_s);
+    return f;
+  };
+  for (int pass = 0; pass < 3; ++pass) {
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(p, p);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const double f = pass > 0 ? model_at(i) : pts[i].avar;
+      const double w = pts[i].edf / (2.0 * f * f);
+      Eigen::VectorXd a(p);
+      for (int j = 0; j < p; ++j) a[j] = basis[static_cast<std::size_t>(j)](pts[i].tau_s);
+      H += w * a * a.transpose();
+      g += w * a * (pts[i].avar - fl[i]);
+    }
+    const Eigen::VectorXd s = H.diagonal().cwiseSqrt().cwiseInverse();
+    if (!s.allFinite()) return std::numeric_limits<double>::infinity();
+    c = s.asDiagonal() * Eigen::MatrixXd(s.asDiagonal() * H * s.asDiagonal()).ldlt().solve(s.asDiagonal() * g);
+    for (int j = 0; j < p; ++j) c[j] = std::max(c[j], 0.0);  // a term pushed to zero stays there (non-negative)
+  }
+  double chi2 = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const double f = std::max(model_at(i), 1e-300);
+    chi2 += pts[i].edf / 2.0 * (pts[i].avar - f) * (pts[i].avar - f) / (f * f);
+  }
+  return chi2;
+}
+}  // namespace
+
+void flicker_upper_limit(const std::vector<AllanAccumulator::Point>& pts, double tmin, double T_hi, StochasticModel& m) {
+  if (pts.size() < 3) return;
+  // The bank of the chosen model, or (no flicker chosen) the widest one: from the shortest cluster time.
+  const std::vector<double> bank = m.bank_tau_s.empty() ? flicker_bank_taus(tmin, T_hi) : m.bank_tau_s;
+  if (bank.empty()) return;
+  const double floor1 = flicker_bank_avar(std::sqrt(bank.front() * bank.back()), bank);
+  if (!(floor1 > 0)) return;
+  const double c0 = m.bank_sigma * m.bank_sigma;
+  const double chi2_0 = profile_chi2(pts, m, bank, c0);
+  if (!std::isfinite(chi2_0)) return;
+  // Start at the fit, or (none fitted) where the flicker floor is 1e-4 of the lowest Allan variance.
+  double avar_min = pts.front().avar;
+  for (const auto& p : pts) avar_min = std::min(avar_min, p.avar);
+  double cb = c0 > 0 ? c0 : 1e-4 * avar_min / floor1;
+  double last_ok = c0;
+  for (int i = 0; i < 400; ++i, cb *= 1.05) {
+    if (profile_chi2(pts, m, bank, cb) - chi2_0 > 2.71) break;  // one-sided 95 % (χ²₁ = 2.71)
+    last_ok = cb;
+  }
+  if (!(last_ok > c0)) return;
+  m.bank_sigma_lik = std::sqrt(last_ok);
+  m.flicker_B_upper = std::sqrt(last_ok * floor1 * M_PI / (2.0 * std::log(2.0)));
+  if (m.bank_tau_s.empty()) m.bank_tau_s = bank;
 }
 
 StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>& pts, double horizon_s) {
@@ -132,6 +206,7 @@ StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>&
       }
     }
   }
+  flicker_upper_limit(pts, tmin, T_hi, best);
   return best;
 }
 
@@ -203,7 +278,9 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
 double block_covariance(const StochasticModel& m, double ti, double di, double tj, double dj, bool same, double t_start,
                         double rw_prior_var) {
   double c = 0;
-  for (const auto& [s2, T] : m.gm_states()) {
+  // The point estimate: what the noise floor and the held-out variances are judged against (the upper limit
+  // is the likelihood's guard against drift, not a claim about the floor).
+  for (const auto& [s2, T] : m.gm_states(false)) {
     double ai = 1, vi = 1, aj = 1, vj = 1;
     gm_block(std::max(di, 1e-9), T, ai, vi);
     gm_block(std::max(dj, 1e-9), T, aj, vj);

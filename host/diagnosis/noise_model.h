@@ -31,6 +31,13 @@ struct StochasticModel {
   double flicker_B = 0;               // flicker bias instability, unit (Allan floor ≈ 0.664 B)
   double bank_sigma = 0;              // common stationary σ of each flicker GM state, unit
   std::vector<double> bank_tau_s;     // their correlation times, s (empty = no flicker term)
+  // The flicker level the LIKELIHOOD carries: the one-sided 95 % upper confidence limit of the bank's σ on the
+  // Allan curve (profile over the other terms), ≥ bank_sigma. A static record of minutes pins a bias
+  // instability that sits below its white noise only loosely (often to zero); every inertial sensor has one,
+  // and an under-stated one lets its hour-scale wander read as a thermal effect. The point estimate
+  // (bank_sigma, flicker_B) is what is reported.
+  double bank_sigma_lik = 0;
+  double flicker_B_upper = 0;         // B of bank_sigma_lik, unit
   double chi2 = 0;     // Allan-fit χ² (Σ edf/2 (AVAR − fit)²/fit²)
   int n_points = 0;
   // Allan variance of the model at cluster time tau_s.
@@ -38,8 +45,10 @@ struct StochasticModel {
   // Variance of the mean of white + quantization noise over tau_s (what a block mean carries
   // independently of its neighbours).
   double white_var(double tau_s) const;
-  // Every Gauss-Markov state of the model (the single GM first, then the flicker bank): {σ², T}.
-  std::vector<std::pair<double, double>> gm_states() const;
+  // Every Gauss-Markov state (the single GM first, then the flicker bank): {σ², T}. upper_limit: the bank at
+  // bank_sigma_lik (the likelihood: GLS whitening), else at the point estimate bank_sigma (the variance of a
+  // block or segment mean: noise floors, held-out χ², cells).
+  std::vector<std::pair<double, double>> gm_states(bool upper_limit = true) const;
 };
 
 // Correlation times of a flicker bank spanning [T_lo, T_hi] (factor 4 apart, both ends covered).
@@ -56,6 +65,10 @@ double gauss_markov_avar(double tau_s, double T_s);
 // horizon_s: the longest time scale the model must describe (the log duration).
 // Without points returns a white model with N = 0 (the caller supplies a fallback).
 StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>& pts, double horizon_s = 0.0);
+
+// Sets m.bank_sigma_lik / flicker_B_upper: the largest flicker level whose Allan χ² (other terms of m
+// refitted) exceeds the best by at most 2.71 (one-sided 95 %). tmin: shortest cluster time, T_hi: horizon.
+void flicker_upper_limit(const std::vector<AllanAccumulator::Point>& pts, double tmin, double T_hi, StochasticModel& m);
 
 // GLS whitening of one segment's block means by a Kalman filter over the bias states (GM, RW).
 // Blocks in time order: mid time t_s, duration dur_s, observation row [z | x] (1 + P columns).

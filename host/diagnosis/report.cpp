@@ -130,6 +130,11 @@ nlohmann::json to_json(const DiagnosisResult& r) {
       e["note"] = "cannot be excited by this campaign: cannot be ruled out";
     }
     if (!c.not_excitable.empty()) e["not_excitable"] = c.not_excitable;
+    if (c.heat_cool_p >= 0) {
+      e["heating_cooling_p"] = num(c.heat_cool_p);
+      if (c.heat_cool_p < 0.01)
+        e["note"] = "the rate coefficient differs between heating and cooling: a drift along one ramp, not a temp_rate effect";
+    }
     if (!c.implausible.empty()) {
       e["implausible"] = c.implausible;
       e["note"] = "magnitude outside the plausible range of docs/error-model.md: flagged, not a finding";
@@ -143,6 +148,12 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                    {"gap_after", gap_json(s.gap_after, &r.gap_before)}});
   j["selected"] = sel;
   j["dropped_by_backward_step"] = r.dropped;
+  nlohmann::json amb = nlohmann::json::array();
+  for (const auto& a : r.ambiguous)
+    amb.push_back({{"chosen", a.chosen}, {"alternative", a.alternative}, {"lr_chosen", num(a.lr_chosen)},
+                   {"lr_alternative", num(a.lr_alternative)}, {"dof_chosen", a.dof_chosen},
+                   {"dof_alternative", a.dof_alternative}, {"delta_aic", num(a.delta_aic)}});
+  j["ambiguous"] = amb;
   // Stochastic terms the static dwells support (each cleared Δχ² > 10 on the Allan curve) and that the
   // likelihood carried: the stochastic sibling of `selected`.
   nlohmann::json ss = nlohmann::json::array();
@@ -183,7 +194,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
     noise[axis_name(a)] = {{"Q", num(t.Q)}, {"N", num(t.N)}, {"B", num(t.B)}, {"K", num(t.K)},
                            {"claimed_N", num(r.claimed_N[u])}, {"allan", pts},
                            {"likelihood_model", {{"N", num(m.N)}, {"Q", num(m.Q)}, {"gm_sigma", num(m.gm_sigma)},
-                                                 {"gm_tau_s", num(m.gm_tau_s)}, {"flicker_B", num(m.flicker_B)},
+                                                 {"gm_tau_s", num(m.gm_tau_s)}, {"flicker_B", num(m.flicker_B)}, {"flicker_B_upper", num(m.flicker_B_upper)},
                                                  {"K", num(m.K)}}}};
   }
   j["noise"] = noise;

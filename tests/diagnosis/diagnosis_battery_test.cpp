@@ -140,7 +140,7 @@ TEST(DiagnosisBattery, BlindCasesNullCasesAndTwoEffects) {
     ASSERT_NE(it, se.end()) << pname << " has no standard error: the campaign does not excite it";
     const double sigma = it->second, truth = 10.0 * sigma;
     int t_first = 0, t_within = 0, t_shrink = 0;
-    double sum_before = 0, sum_after = 0;
+    double sum_before = 0, sum_after = 0, chi_before = 0, chi_after = 0;
     for (int seed = 1; seed <= kSeeds; ++seed) {
       json extra = {{T.sensor + "." + T.effect, {{T.component, truth}}}};
       auto data = T.thermal ? simulate(C.thermal, base_sensor(true, extra), 100 * seed + 7)
@@ -157,6 +157,12 @@ TEST(DiagnosisBattery, BlindCasesNullCasesAndTwoEffects) {
       const double shrink = gb > 0 ? 100.0 * (1.0 - ga / gb) : 0.0;
       sum_before += gb;
       sum_after += ga;
+      // The held-out χ² excess over its expectation on the effect's axes (the figure the selection uses).
+      for (int i = T.sensor == "accel" ? 0 : 3, e = i + 3; i < e; ++i) {
+        if (!T.axis.empty() && T.axis != dg::axis_name(i)) continue;
+        chi_before += std::max(0.0, r.gap_before.chi2_dof[static_cast<std::size_t>(i)] - 1.0);
+        chi_after += std::max(0.0, r.gap_after.chi2_dof[static_cast<std::size_t>(i)] - 1.0);
+      }
       t_first += is_first;
       t_within += ok3;
       t_shrink += shrink >= 80.0;
@@ -165,10 +171,17 @@ TEST(DiagnosisBattery, BlindCasesNullCasesAndTwoEffects) {
                     r.ranking.empty() ? "-" : r.ranking[0].sensor.c_str(), r.ranking.empty() ? "-" : r.ranking[0].effect.c_str(), v, s,
                     truth, shrink, gb, ga);
     }
-    const double agg = sum_before > 0 ? 100.0 * (1.0 - sum_after / sum_before) : 0.0;
+    const double agg_rms = sum_before > 0 ? 100.0 * (1.0 - sum_after / sum_before) : 0.0;
+    const double agg_chi = chi_before > 0 ? 100.0 * (1.0 - chi_after / chi_before) : 0.0;
+    std::printf("%-36s held-out chi2/dof excess over seeds %.3g -> %.3g (shrink %.0f%%)\n", pname.c_str(), chi_before, chi_after, agg_chi);
+    // gyro.timing is judged on the held-out χ² excess: since the likelihood carries the flicker upper limit
+    // (docs/diagnosis.md § 2), the fold fits' parameter covariance in the held-out floor is the conservative
+    // one, and the RMS gap of a 10σ timing error (sines: u̇ averages out over a segment mean) is at or below
+    // that floor before and after (gap 0 → 0, shrink undefined). The χ² excess still sees it.
+    const double agg = T.effect == "timing" ? agg_chi : agg_rms;
     std::printf("%-36s truth %.4g (10 sigma): ranked first %d/%d, within 3 sigma %d/%d, gap shrink>=80%% %d/%d, shrink over seeds %.0f%%\n",
                 pname.c_str(), truth, t_first, kSeeds, t_within, kSeeds, t_shrink, kSeeds, agg);
-    // gyro.timing at 10σ (44 µs) shrinks its gap by 65 % over the seeds since issue 12 (was ≥ 80 %): its
+    // gyro.timing at 10σ (44 µs) shrank its RMS gap by 65 % over the seeds since issue 12 (was ≥ 80 %): its
     // six-parameter per-axis relaxation is selected on a χ² gain of ≈ 80, and the shrink of the held-out RMS
     // gap of three axes at that size is at the edge of what withheld segments resolve (open, see issue 12).
     const double need = T.effect == "timing" ? 60.0 : 80.0;

@@ -61,7 +61,8 @@ TEST(DiagnosisStats, AllanOfWhiteNoiseAndRandomWalk) {
 
 // The likelihood's noise model (noise_model.h): a flat Allan floor seen over τ ≤ 40 s is fitted as flicker and
 // carried to the log's time scales (bias wander between blocks an hour apart), white noise is not given a
-// phantom drift, and a white model whitens to the data itself.
+// phantom drift (but the likelihood carries the flicker upper limit the record cannot exclude), and a white
+// model whitens to the data itself.
 TEST(DiagnosisNoiseModel, FlickerFloorIsCarriedToTheLogDuration) {
   const double N = 2e-3, B = 5e-4, horizon_s = 5000;
   const std::vector<double> bank = flicker_bank_taus(0.01, horizon_s);
@@ -92,13 +93,25 @@ TEST(DiagnosisNoiseModel, FlickerFloorIsCarriedToTheLogDuration) {
   EXPECT_EQ(w.gm_sigma, 0.0);
   EXPECT_EQ(w.K, 0.0);
   EXPECT_NEAR(w.N, N, 1e-3 * N);
+  // ... but the likelihood carries the flicker a 41 s record cannot exclude (one-sided 95 %): above zero, yet
+  // below the white Allan deviation at the longest cluster time (a larger floor would flatten the curve there).
+  EXPECT_GT(w.flicker_B_upper, 0.0);
+  EXPECT_LT(0.664 * w.flicker_B_upper, N / std::sqrt(pts.back().tau_s));
+  // With a floor in the data the limit sits above the estimate and not far from the truth.
+  EXPECT_GE(m.flicker_B_upper, m.flicker_B);
+  EXPECT_LT(m.flicker_B_upper, 1.5 * B);
+  // Block-mean variances (noise floors) use the point estimate, the whitening the limit.
+  EXPECT_EQ(w.gm_states(false).size(), 0u);
+  EXPECT_GT(w.gm_states(true).size(), 0u);
   // A white model whitens to the data: innovations = rows, S = N²/d.
+  StochasticModel w0 = w;
+  w0.bank_sigma_lik = 0.0;
   Eigen::MatrixXd rows(3, 2), innov(3, 2);
   rows << 1, 2, 3, 4, 5, 6;
   Eigen::VectorXd S(3);
-  whiten_segment(w, {0.0, 10.0, 20.0}, {4.0, 4.0, 4.0}, rows, 0.0, innov, S);
+  whiten_segment(w0, {0.0, 10.0, 20.0}, {4.0, 4.0, 4.0}, rows, 0.0, innov, S);
   EXPECT_NEAR((innov - rows).norm(), 0.0, 1e-12);
-  EXPECT_NEAR(S[1], w.N * w.N / 4.0, 1e-12 * S[1]);
+  EXPECT_NEAR(S[1], w0.N * w0.N / 4.0, 1e-12 * S[1]);
   // With flicker, later blocks are predicted from earlier ones: part of a constant offset is absorbed (white
   // noise would leave every innovation equal to the offset).
   Eigen::MatrixXd off = Eigen::MatrixXd::Constant(3, 1, 10.0 * B), nu(3, 1);
