@@ -598,6 +598,27 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   close_block();
   flush_run();
   out.n_units = unit + 1;
+  // A dwell cut by a reference gap (a reference-free pose of several still parts, a dropout) is still one
+  // dwell: its parts share one reference, so withholding one part while fitting another is no withholding.
+  // Units are the withholdable groups, so parts of one segment number become one unit. Only done when a
+  // segment number does repeat, so logs without repeats keep their unit numbering (and folds) unchanged.
+  {
+    std::map<int, std::set<int>> units_of_seg;
+    for (const Block& b : out.blocks)
+      if (b.segment >= 0) units_of_seg[b.segment].insert(b.unit);
+    bool repeats = false;
+    for (const auto& [seg, us] : units_of_seg) repeats = repeats || us.size() > 1;
+    if (repeats) {
+      std::map<std::pair<int, int>, int> group;  // (segment, -1) or (-1, unit) -> new unit, first-seen order
+      for (Block& b : out.blocks) {
+        const std::pair<int, int> key = b.segment >= 0 ? std::make_pair(b.segment, -1) : std::make_pair(-1, b.unit);
+        auto it = group.find(key);
+        if (it == group.end()) it = group.emplace(key, static_cast<int>(group.size())).first;
+        b.unit = it->second;
+      }
+      out.n_units = static_cast<int>(group.size());
+    }
+  }
   return out;
 }
 

@@ -224,6 +224,49 @@ TEST(DiagnosisPipeline, NominalInputPerAxis) {
   for (int a = 0; a < 6; ++a) EXPECT_LT(r.gap_before.rms[static_cast<std::size_t>(a)], 10.0 * sigma[a]) << axis_name(a);
 }
 
+// A dwell cut into parts by reference gaps (a hand-held pose of several still parts in reference-free mode, a
+// dropout) is one withholdable group: its parts share one reference, so fitting one part and "withholding"
+// another is no withholding. Two faces cut into three parts each are two segments, too few to withhold.
+TEST(DiagnosisPipeline, PartsOfOneSegmentAreOneWithholdableGroup) {
+  const double g = 9.80665;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n01;
+  auto make = [&](int faces_n) {
+    std::vector<Sample> log;
+    int i = 0;
+    for (int seg = 0; seg < faces_n; ++seg)
+      for (int part = 0; part < 3; ++part)
+        for (int k = 0; k < 140; ++k, ++i) {
+          Sample s;
+          s.t_s = i / 10.0;
+          s.temp_C = 25.0;
+          s.has_ref = k < 100;  // 4 s without reference between the parts
+          s.segment = s.has_ref ? seg : -1;
+          const int ax = seg % 3;
+          s.f[ax] = (seg / 3) % 2 ? -g : g;
+          for (int a = 0; a < 6; ++a) s.y[a] = (a < 3 ? s.f[a] : 0.0) + (a < 3 ? 1e-3 : 1e-4) * n01(rng);
+          log.push_back(s);
+        }
+    return log;
+  };
+  {
+    VectorSource src(make(2));
+    DiagnosisResult r = diagnose(src, basic_model(), Options{});
+    EXPECT_EQ(r.n_units, 2) << "three parts of each of two faces";
+    EXPECT_TRUE(r.selected.empty());
+    EXPECT_TRUE(std::isnan(r.gap_before.chi2_dof[0])) << "nothing can be withheld";
+    bool said = false;
+    for (const auto& w : r.warnings) said = said || w.find("nothing can be withheld") != std::string::npos;
+    EXPECT_TRUE(said);
+  }
+  {
+    VectorSource src(make(6));
+    DiagnosisResult r = diagnose(src, basic_model(), Options{});
+    EXPECT_EQ(r.n_units, 6) << "three parts of each of six faces";
+    EXPECT_TRUE(std::isfinite(r.gap_before.chi2_dof[0]));
+  }
+}
+
 // Instantaneous steps into motion (a sine or a tumble starting from rest) with a clock error that grows to
 // several sample intervals: the first samples after each step read the old input, which no linearised timing
 // term describes (docs/diagnosis.md § timing, "lag probe"). Hand-made log, independent of host/sim: the output
