@@ -41,7 +41,11 @@ void keep_solver_identifiable(nlohmann::json& mj, const std::string& log_path, c
                               const diagnosis::DiagnosisResult& r) {
   nlohmann::json& notes = mj["_diagnosis"]["not_emitted"];
   notes = nlohmann::json::array();
-  for (int pass = 0; pass < 2; ++pass) {
+  // An effect is left out only when it appears in an unobservable direction (a component ≥ 0.05 of the
+  // scaled null vector, as printed). The per-parameter flag (any component above 1e-3) is not used: in a
+  // degenerate null space (timing's exact zeros beside another exact collinearity) the eigen-solver mixes in
+  // weakly observable parameters at that level, and a size effect the solver does observe was left out.
+  for (std::size_t pass = 0; pass <= added.size(); ++pass) {
     const model::ModelSpec spec = model::model_spec_from_json(mj);
     io::LogReader log(log_path);
     solver::FixtureAccumulator acc(spec, log.meta());
@@ -49,12 +53,13 @@ void keep_solver_identifiable(nlohmann::json& mj, const std::string& log_path, c
     while (log.next(row)) acc.add(row);
     acc.finish();
     const std::vector<std::string> names = acc.names();
-    const estimator::Observability obs =
-        estimator::analyse_observability(acc.normal_equations(acc.static_noise_sigma()).info, names);
+    const estimator::NormalEquations ne = acc.normal_equations(acc.static_noise_sigma());
+    const estimator::Observability obs = estimator::analyse_observability(ne.info, names);
     if (obs.rank == obs.n_params) break;
     std::set<std::string> drop;
-    for (std::size_t i = 0; i < names.size(); ++i)
-      if (obs.parameter_unobservable[i] && added.count(effect_key_of(names[i]))) drop.insert(effect_key_of(names[i]));
+    for (const std::string& d : obs.unobservable)
+      for (const std::string& key : added)
+        if (d.find(key + ".") != std::string::npos) drop.insert(key);
     if (drop.empty()) {
       mj["_diagnosis"]["solver_rank_deficient"] = obs.unobservable;  // the base model's own, left as given
       break;
@@ -67,11 +72,30 @@ void keep_solver_identifiable(nlohmann::json& mj, const std::string& log_path, c
       nlohmann::json dirs = nlohmann::json::array();
       for (const std::string& d : obs.unobservable)
         if (d.find(key + ".") != std::string::npos) dirs.push_back(d);
-      notes.push_back({{"effect", key},
-                       {"reason", "unobservable for `imuforge solve` in fixture mode on this log: it uses dwell rows only "
-                                  "and takes u-dot = 0 there, so the effect's regressor is zero"},
-                       {"unobservable", dirs},
-                       {"diagnosis_estimate", estimate}});
+      // Why: a regressor that is zero on every row the solver reads (timing: u̇ = 0 on a dwell), or one that
+      // is collinear there with other parameters (e.g. scale_nonlinearity's k3·f³ = g²·f on ±1 g faces).
+      bool all_zero = true;
+      for (std::size_t i = 0; i < names.size(); ++i)
+        if (effect_key_of(names[i]) == key && ne.info(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(i)) > 0.0) all_zero = false;
+      std::string reason;
+      if (all_zero) {
+        reason = "unobservable for `imuforge solve` in fixture mode on this log: it uses dwell rows only and takes u-dot = 0 "
+                 "there, so the effect's regressor is zero";
+      } else {
+        std::set<std::string> partners;
+        for (const auto& dj : dirs)
+          for (const std::string& n : names)
+            if (effect_key_of(n) != key && dj.get<std::string>().find(n) != std::string::npos) partners.insert(n);
+        reason = "unobservable for `imuforge solve` in fixture mode on this log: on the dwell rows it reads, the effect "
+                 "cannot be told apart from";
+        std::string sep = " ";
+        for (const auto& n : partners) {
+          reason += sep + n;
+          sep = ", ";
+        }
+        if (partners.empty()) reason += " itself (its own components are collinear)";
+      }
+      notes.push_back({{"effect", key}, {"reason", reason}, {"unobservable", dirs}, {"diagnosis_estimate", estimate}});
       std::fprintf(stderr, "imuforge diagnose: --emit-model: %s left out (not observable by the fixture solver on this log)\n",
                    key.c_str());
     }
