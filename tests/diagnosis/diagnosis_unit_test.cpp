@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "host/diagnosis/noise_model.h"
@@ -150,6 +151,19 @@ TEST(DiagnosisPipeline, FindsInjectedGSensitivityAndReportsUnexcitable) {
   EXPECT_EQ(html.find("src="), std::string::npos);
   EXPECT_EQ(html.find("href="), std::string::npos);
   EXPECT_NE(summary_text(r).find("g_sensitivity"), std::string::npos);
+  // Every excitable candidate says what this log could have seen: 5σ per component, positive.
+  ASSERT_TRUE(j["ranking"][0].contains("min_detectable_5sigma"));
+  ASSERT_EQ(j["ranking"][0]["min_detectable_5sigma"].size(), j["ranking"][0]["magnitude"].size());
+  for (const auto& m : j["ranking"][0]["min_detectable_5sigma"]) EXPECT_GT(m["value"].get<double>(), 0.0) << m.dump();
+  // The text's magnitudes of a selected effect are the final joint fit's (item 3), not the ranking's.
+  const std::string txt = summary_text(r);
+  EXPECT_NE(txt.find("magnitude of gyro.g_sensitivity (final joint fit)"), std::string::npos);
+  for (const auto& p : r.final_params)
+    if (p.name == "gyro.g_sensitivity.xz") {
+      char want[128];
+      std::snprintf(want, sizeof want, "%s [%s] = %.4g +/- %.2g", p.name.c_str(), p.axis.c_str(), p.value, p.sigma);
+      EXPECT_NE(txt.find(want), std::string::npos) << want << "\n" << txt;
+    }
 }
 
 TEST(DiagnosisPipeline, RejectsBadInput) {
