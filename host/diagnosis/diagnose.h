@@ -160,6 +160,9 @@ struct StochasticScore {
   double value = 0, sigma = 0;
   double delta_chi2 = 0, p_value = 1;
   bool significant = false;
+  // true: tested against white noise plus the output filter's short Gauss-Markov term (the likelihood's
+  // noise model found one within 5 shortest cluster times), not against white noise alone.
+  bool against_filter = false;
 };
 
 struct Cell {

@@ -194,7 +194,8 @@ nlohmann::json to_json(const DiagnosisResult& r) {
   nlohmann::json st = nlohmann::json::array();
   for (const auto& s : r.stochastic)
     st.push_back({{"effect", s.effect}, {"axis", s.axis}, {"value", num(s.value)}, {"sigma", num(s.sigma)},
-                  {"delta_chi2", num(s.delta_chi2)}, {"p_value", num(s.p_value)}, {"significant", s.significant}});
+                  {"delta_chi2", num(s.delta_chi2)}, {"p_value", num(s.p_value)}, {"significant", s.significant},
+                  {"baseline", s.against_filter ? "white + output filter (short Gauss-Markov)" : "white"}});
   j["stochastic"] = st;
   nlohmann::json noise = nlohmann::json::object();
   for (int a = 0; a < kNumAxes; ++a) {
@@ -304,6 +305,7 @@ std::string color_for_z(double z) {
 }
 
 std::string heatmap_svg(const DiagnosisResult& r) {
+  if (r.cells.empty()) return "<p>No cell could be scored: nothing was withheld (too short to tell).</p>";
   // Columns: every non-segment cell label (segments summarised by the worst one per axis).
   std::vector<std::pair<std::string, std::string>> cols;
   for (const auto& c : r.cells) {
@@ -450,7 +452,11 @@ std::string allan_svg(const DiagnosisResult& r, int a) {
   std::vector<std::pair<double, double>> meas, fit, cl, sm;
   for (const auto& p : pts) {
     meas.push_back({p.tau_s, std::sqrt(p.avar)});
-    fit.push_back({p.tau_s, std::sqrt(r.noise[static_cast<std::size_t>(a)].terms.avar(p.tau_s))});
+    // The noise model the likelihood carries (white, quantization, Gauss-Markov, flicker, random walk): the
+    // four IEEE 952 power laws alone cannot bend with an output filter and drew a flat line through it.
+    const StochasticModel& st = r.stoch[static_cast<std::size_t>(a)];
+    const double model_avar = st.n_points > 0 ? st.avar(p.tau_s) : r.noise[static_cast<std::size_t>(a)].terms.avar(p.tau_s);
+    fit.push_back({p.tau_s, std::sqrt(model_avar)});
     if (claim(p.tau_s) > 0) cl.push_back({p.tau_s, claim(p.tau_s)});
   }
   for (const auto& p : sim) sm.push_back({p.tau_s, std::sqrt(p.avar)});
@@ -479,7 +485,8 @@ std::string report_html(const DiagnosisResult& r) {
   // The heat map scrolls inside its box when it is wider than the page.
   h << "<h2>Where: held-out residuals per axis and condition</h2><div style=\"overflow-x:auto;max-width:100%\">" << heatmap_svg(r)
     << "</div>";
-  h << "<h2>Which: ranking</h2><table><tr><th>#</th><th>effect</th><th>-log10 p</th><th>p</th><th>dBIC</th><th>held-out shrink %</th><th>significant</th><th title='the magnitude each component would show at 5 sigma on this log'>5&sigma; detectable</th></tr>";
+  if (r.ranking.empty()) h << "<h2>Which: ranking</h2><p>No effect was scored: nothing can be withheld from this log (too short to tell).</p>";
+  else h << "<h2>Which: ranking</h2><table><tr><th>#</th><th>effect</th><th>-log10 p</th><th>p</th><th>dBIC</th><th>held-out shrink %</th><th>significant</th><th title='the magnitude each component would show at 5 sigma on this log'>5&sigma; detectable</th></tr>";
   int i = 0;
   for (const auto& c : r.ranking) {
     ++i;
@@ -490,9 +497,10 @@ std::string report_html(const DiagnosisResult& r) {
     else
       h << "<td colspan='6'>not excited by this campaign: cannot be ruled out</td></tr>";
   }
-  h << "</table>";
-  h << "<h2>Residuals before and after, against " << esc(r.plot_variable) << " (" << esc(r.plot_axis) << ")</h2>" << scatter_svg(r);
-  h << "<h2>Allan deviation of static residuals</h2><p>black: measured; red dashed: fitted IEEE 952 terms; blue dotted: white noise "
+  if (!r.ranking.empty()) h << "</table>";
+  if (r.plot_variable.empty()) h << "<h2>Residuals before and after</h2>" << scatter_svg(r);
+  else h << "<h2>Residuals before and after, against " << esc(r.plot_variable) << " (" << esc(r.plot_axis) << ")</h2>" << scatter_svg(r);
+  h << "<h2>Allan deviation of static residuals</h2><p>black: measured; red dashed: the fitted noise model the likelihood carries (IEEE 952 white, quantization and rate random walk, a Gauss-Markov term, flicker); blue dotted: white noise "
        "the model claims; green dashed: simulation of the same campaign (--sim).</p>";
   for (int a = 0; a < kNumAxes; ++a) h << allan_svg(r, a);
   h << "</body></html>\n";
