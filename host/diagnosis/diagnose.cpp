@@ -1595,6 +1595,78 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     }
   }
 
+  // ---- Magnitude sensitivity. A catalog effect that is not selected but that the data cannot exclude
+  // either (p < 0.5 against the final model, unadjusted) may still be there; when adding it moves a selected
+  // effect's magnitude by more than 3σ, that σ does not cover what the campaign cannot separate (campaign-eol:
+  // gyro scale_asymmetry 2.5e-5 ± 2.2e-5 for a truth of 4e-4, the sensor's unselected k2 ω² absorbed by it).
+  // Reported, never used to change the selection.
+  {
+    std::set<std::pair<int, int>> selected_effects;
+    for (const auto& st : R.selected) {
+      const auto [ss, se] = effect_of(st.sensor, st.effect);
+      selected_effects.insert({static_cast<int>(ss), static_cast<int>(se)});
+    }
+    for (auto [s, e] : candidates) {
+      if (cur_effects.count({static_cast<int>(s), static_cast<int>(e)})) continue;
+      bool sensor_has_selection = false;
+      for (const auto& se : selected_effects) sensor_has_selection = sensor_has_selection || se.first == static_cast<int>(s);
+      if (!sensor_has_selection) continue;
+      const CandidateScore c = score_one(cur, s, e);
+      if (!c.excitable || !(c.p_value < 0.5)) continue;
+      const std::vector<ParamId> eids = model::effect_params(s, e);
+      const int a0 = s == Sensor::kAccel ? 0 : 3;
+      // Every component of a selected effect is kept; an effect is reported whole when any of its components
+      // moves by > 3σ (one dependence, seen most on some axes).
+      std::vector<DiagnosisResult::Sensitivity> all;
+      std::set<std::pair<int, int>> moved;
+      for (int a = a0; a < a0 + 3; ++a) {
+        const auto& ad = ax[static_cast<std::size_t>(a)];
+        const Fit f0 = fit_axis(ad, cols_for(ad, cur), -1);
+        const Fit f1 = fit_axis(ad, cols_for(ad, cur, eids), -1);
+        std::map<int, double> with;
+        for (int i = 0; i < static_cast<int>(f1.kept.size()); ++i) with[f1.kept[static_cast<std::size_t>(i)]] = f1.theta[i];
+        for (int i = 0; i < static_cast<int>(f0.kept.size()); ++i) {
+          const int col = f0.kept[static_cast<std::size_t>(i)];
+          const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(col)]);
+          if (!selected_effects.count({static_cast<int>(pi.sensor), static_cast<int>(pi.effect)})) continue;
+          const double sig = std::sqrt(std::max(f0.cov(i, i), 0.0));
+          auto it = with.find(col);
+          if (it == with.end() || !(sig > 0)) continue;
+          const double shift = std::fabs(it->second - f0.theta[i]) / sig;
+          if (shift > 3.0) moved.insert({static_cast<int>(pi.sensor), static_cast<int>(pi.effect)});
+          DiagnosisResult::Sensitivity sv;
+          sv.name = pi.name;
+          sv.axis = axis_name(a);
+          sv.value = f0.theta[i];
+          sv.sigma = sig;
+          sv.value_with = it->second;
+          sv.shift_sigma = shift;
+          sv.alternative = c.sensor + "." + c.effect;
+          sv.p_alternative = c.p_value;
+          all.push_back(sv);
+        }
+      }
+      for (const auto& sv : all) {
+        const auto& pi = model::param_info(model::find_param(sv.name));
+        if (moved.count({static_cast<int>(pi.sensor), static_cast<int>(pi.effect)})) R.sensitivity.push_back(sv);
+      }
+    }
+    std::map<std::string, std::pair<std::string, double>> worst;  // selected effect → (alternative, max shift)
+    for (const auto& sv : R.sensitivity) {
+      const std::string eff = sv.name.substr(0, sv.name.find('.', sv.name.find('.') + 1));
+      auto& w = worst[eff + " / " + sv.alternative];
+      if (!(sv.shift_sigma > 3.0)) continue;
+      if (sv.shift_sigma > w.second) w = {sv.name + "@" + sv.axis, sv.shift_sigma};
+    }
+    for (const auto& [pair, w] : worst) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.0f", w.second);
+      R.warnings.push_back("magnitudes depend on an effect the campaign can neither confirm nor exclude (" + pair +
+                           "): adding the second moves " + w.first + " by " + buf +
+                           " sigma; its sigma does not cover that (magnitude_sensitivity in diagnosis.json)");
+    }
+  }
+
   // ---- Cells: held-out residuals of the base model per axis × condition.
   std::array<std::vector<double>, kNumAxes> rb, pvb;
   for (int a = 0; a < kNumAxes; ++a)

@@ -228,6 +228,18 @@ struct DiagnosisResult {
     double delta_aic = 0;             // AIC gain of chosen − alternative (≥ 0)
   };
   std::vector<Ambiguity> ambiguous;
+  // A selected effect's component that moves by > 3σ when an unselected effect the data cannot exclude
+  // (p < 0.5 against the final model) is added: its σ does not cover what this campaign cannot separate.
+  // Reported whole: every component of an effect any of whose components moved by > 3σ.
+  struct Sensitivity {
+    std::string name, axis;          // the selected effect's component
+    double value = 0, sigma = 0;     // final joint fit
+    double value_with = 0;           // with the alternative added
+    double shift_sigma = 0;          // |value_with − value| / sigma
+    std::string alternative;         // "gyro.scale_nonlinearity"
+    double p_alternative = 1;        // its p-value against the final model (unadjusted)
+  };
+  std::vector<Sensitivity> sensitivity;
   std::vector<Unexplained> unexplained;
   std::set<model::ParamId> final_ids;      // parameters of the final model (base + selected)
   std::array<double, 2> timing_shift_latency_s{}, timing_shift_ppm{};  // reference re-evaluated at this shift

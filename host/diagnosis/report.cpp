@@ -166,6 +166,12 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                    {"lr_alternative", num(a.lr_alternative)}, {"dof_chosen", a.dof_chosen},
                    {"dof_alternative", a.dof_alternative}, {"delta_aic", num(a.delta_aic)}});
   j["ambiguous"] = amb;
+  nlohmann::json sens = nlohmann::json::array();
+  for (const auto& v : r.sensitivity)
+    sens.push_back({{"name", v.name}, {"axis", v.axis}, {"value", num(v.value)}, {"sigma", num(v.sigma)},
+                    {"value_with_alternative", num(v.value_with)}, {"shift_sigma", num(v.shift_sigma)},
+                    {"alternative", v.alternative}, {"p_alternative", num(v.p_alternative)}});
+  j["magnitude_sensitivity"] = sens;
   // Stochastic terms the static dwells support (each cleared Δχ² > 10 on the Allan curve) and that the
   // likelihood carried: the stochastic sibling of `selected`.
   nlohmann::json ss = nlohmann::json::array();
