@@ -258,6 +258,31 @@ RunResult Runner::run() {
     res.report_path = (out / "report.html").string();
     res.early_stopped = early_stopped;
     res.campaign_time_s = run_clock_base;
+    // The estimate of the finished run, from its cal.json (written before the flash, the record and
+    // "finished"): a resume after a kill in the last moments reports what was recorded, not an empty estimate.
+    {
+      std::ifstream cf(out / "cal.json");
+      const json cal = cf ? json::parse(cf, nullptr, false) : json();
+      if (cal.is_object() && cal.contains("parameters") && cal["parameters"].is_array()) {
+        const auto& ps = cal["parameters"];
+        const Eigen::Index n = static_cast<Eigen::Index>(ps.size());
+        res.estimate.value = Eigen::VectorXd::Zero(n);
+        res.estimate.covariance = Eigen::MatrixXd::Zero(n, n);
+        const bool full = cal.contains("covariance") && cal["covariance"].is_array() &&
+                          static_cast<Eigen::Index>(cal["covariance"].size()) == n;
+        for (Eigen::Index i = 0; i < n; ++i) {
+          const json& p = ps[static_cast<std::size_t>(i)];
+          res.estimate.names.push_back(p.value("name", ""));
+          res.estimate.value[i] = p.value("value", 0.0);
+          const double sg = p.value("sigma", -1.0);
+          res.estimate.covariance(i, i) = sg >= 0 ? sg * sg : NAN;
+          if (full)
+            for (Eigen::Index k = 0; k < n; ++k) res.estimate.covariance(i, k) = cal["covariance"][static_cast<std::size_t>(i)][static_cast<std::size_t>(k)].get<double>();
+          res.record.parameters.push_back({res.estimate.names.back(), res.estimate.value[i], sg >= 0 ? sg : NAN, 0, 0, true});
+        }
+        res.record.id = res.record_id;
+      }
+    }
     if (opt_.progress) std::fprintf(opt_.progress, "run in %s already finished: %s\n", out.c_str(), res.pass ? "PASS" : "FAIL");
     return res;
   }

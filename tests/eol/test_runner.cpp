@@ -170,6 +170,14 @@ TEST(Runner, FullScheduleRunPassesAndRecords) {
   EXPECT_TRUE(again.pass);
   EXPECT_EQ(again.segments_collected, 0);
   EXPECT_EQ(store->find_by_serial("SN-42").size(), 1u) << "a resumed finished run is not recorded twice";
+  // ... and its estimate, as recorded (cal.json): a kill in the run's last moments, then a resume, must not
+  // report an empty calibration (eol_crash_test once drew such a kill point).
+  ASSERT_EQ(again.estimate.names, r.estimate.names);
+  for (Eigen::Index i = 0; i < r.estimate.value.size(); ++i) {
+    EXPECT_NEAR(again.estimate.value[i], r.estimate.value[i], 1e-12 * (1.0 + std::fabs(r.estimate.value[i]))) << r.estimate.names[static_cast<std::size_t>(i)];
+    EXPECT_NEAR(again.estimate.sigma()[i], r.estimate.sigma()[i], 1e-9 * r.estimate.sigma()[i]) << r.estimate.names[static_cast<std::size_t>(i)];
+  }
+  EXPECT_EQ(again.record.parameters.size(), r.estimate.names.size());
 }
 
 TEST(Runner, ResumeAfterCrashNeverRecollectsAndMatchesUninterrupted) {
