@@ -1617,7 +1617,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       const int a0 = s == Sensor::kAccel ? 0 : 3;
       // Every component of a selected effect is kept; an effect is reported whole when any of its components
       // moves by > 3σ (one dependence, seen most on some axes).
-      std::vector<DiagnosisResult::Sensitivity> all;
+      std::vector<std::pair<std::pair<int, int>, DiagnosisResult::Sensitivity>> all;  // (selected effect, entry)
       std::set<std::pair<int, int>> moved;
       for (int a = a0; a < a0 + 3; ++a) {
         const auto& ad = ax[static_cast<std::size_t>(a)];
@@ -1633,7 +1633,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
           auto it = with.find(col);
           if (it == with.end() || !(sig > 0)) continue;
           const double shift = std::fabs(it->second - f0.theta[i]) / sig;
-          if (shift > 3.0) moved.insert({static_cast<int>(pi.sensor), static_cast<int>(pi.effect)});
+          const std::pair<int, int> owner{static_cast<int>(pi.sensor), static_cast<int>(pi.effect)};
+          if (shift > 3.0) moved.insert(owner);
           DiagnosisResult::Sensitivity sv;
           sv.name = pi.name;
           sv.axis = axis_name(a);
@@ -1643,19 +1644,17 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
           sv.shift_sigma = shift;
           sv.alternative = c.sensor + "." + c.effect;
           sv.p_alternative = c.p_value;
-          all.push_back(sv);
+          all.push_back({owner, sv});
         }
       }
-      for (const auto& sv : all) {
-        const auto& pi = model::param_info(model::find_param(sv.name));
-        if (moved.count({static_cast<int>(pi.sensor), static_cast<int>(pi.effect)})) R.sensitivity.push_back(sv);
-      }
+      for (const auto& [owner, sv] : all)
+        if (moved.count(owner)) R.sensitivity.push_back(sv);
     }
     std::map<std::string, std::pair<std::string, double>> worst;  // selected effect → (alternative, max shift)
     for (const auto& sv : R.sensitivity) {
       const std::string eff = sv.name.substr(0, sv.name.find('.', sv.name.find('.') + 1));
-      auto& w = worst[eff + " / " + sv.alternative];
       if (!(sv.shift_sigma > 3.0)) continue;
+      auto& w = worst[eff + " / " + sv.alternative];
       if (sv.shift_sigma > w.second) w = {sv.name + "@" + sv.axis, sv.shift_sigma};
     }
     for (const auto& [pair, w] : worst) {
@@ -1786,49 +1785,15 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       // stays out of the baseline, so a bias instability is still tested against white noise.
       const StochasticModel& sm = R.stoch[static_cast<std::size_t>(a)];
       const bool filtered = sm.gm_sigma > 0 && sm.gm_tau_s > 0 && sm.gm_tau_s <= 5.0 * pts.front().tau_s;
-      const double kFl = 2.0 * std::log(2.0) / M_PI;
-      // bits: 0x1 Q, 0x2 N, 0x4 B, 0x8 K (as fit_noise_terms); with the filter, one more basis column.
+      // The noise model's T sits on a coarse grid, and a shape mismatch of a few % at the short end is
+      // "significant" there (tens of thousands of degrees of freedom), so T is profiled on a fine grid.
       auto fit_with = [&](unsigned mask) {
         if (!filtered) return fit_noise_terms(pts, mask);
-        std::vector<int> cols;
-        for (int t = 0; t < 4; ++t)
-          if (mask & (1u << t)) cols.push_back(t);
-        cols.push_back(4);  // the filter's Gauss-Markov shape, its T profiled around the noise model's
         NoiseFit best;
         best.chi2 = std::numeric_limits<double>::infinity();
-        // The noise model's T sits on a coarse grid, and a shape mismatch of a few % at the short end is
-        // "significant" there (tens of thousands of degrees of freedom), so T is refitted on a fine grid.
         for (int k = -12; k <= 12; ++k) {
-        const double T = sm.gm_tau_s * std::pow(2.0, k / 8.0);
-        auto basis = [&](int i, double tau) {
-          switch (cols[static_cast<std::size_t>(i)]) {
-            case 0: return 1.0 / (tau * tau);
-            case 1: return 1.0 / tau;
-            case 2: return 1.0;
-            case 3: return tau;
-            default: return gauss_markov_avar(tau, T);
-          }
-        };
-        NoiseFit nf;
-        nf.n_points = static_cast<int>(pts.size());
-        Eigen::VectorXd c;
-        Eigen::MatrixXd H;
-        double chi2 = 0;
-        const int p = static_cast<int>(cols.size());
-        // A term that cannot be positive at this T: no fit here (infinite χ², no improvement).
-        if (p > static_cast<int>(pts.size()) || !fit_allan_terms(pts, basis, p, c, H, chi2) || !(chi2 < best.chi2)) continue;
-        nf.chi2 = chi2;
-        const Eigen::MatrixXd cov = H.inverse();
-        for (int i = 0; i + 1 < p; ++i) {
-          const double ci = c[i], si = std::sqrt(std::max(cov(i, i), 0.0));
-          switch (cols[static_cast<std::size_t>(i)]) {
-            case 0: nf.terms.Q = std::sqrt(ci / 3.0); nf.sigma[0] = si / 3.0 / (2.0 * nf.terms.Q); break;
-            case 1: nf.terms.N = std::sqrt(ci); nf.sigma[1] = si / (2.0 * nf.terms.N); break;
-            case 2: nf.terms.B = std::sqrt(ci / kFl); nf.sigma[2] = si / kFl / (2.0 * nf.terms.B); break;
-            default: nf.terms.K = std::sqrt(3.0 * ci); nf.sigma[3] = 3.0 * si / (2.0 * nf.terms.K); break;
-          }
-        }
-        best = nf;
+          NoiseFit f = fit_noise_terms(pts, mask, sm.gm_tau_s * std::pow(2.0, k / 8.0));
+          if (f.chi2 < best.chi2) best = f;
         }
         return best;
       };

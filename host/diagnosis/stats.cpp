@@ -1,5 +1,7 @@
 #include "host/diagnosis/stats.h"
 
+#include "host/diagnosis/noise_model.h"
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -155,7 +157,7 @@ bool fit_allan_terms(const std::vector<AllanAccumulator::Point>& pts, const std:
   return true;
 }
 
-NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsigned enabled_mask) {
+NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsigned enabled_mask, double gm_T_s) {
   NoiseFit best;
   best.n_points = static_cast<int>(pts.size());
   best.chi2 = std::numeric_limits<double>::infinity();
@@ -169,7 +171,8 @@ NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsign
       case 0: return 1.0 / (tau * tau);
       case 1: return 1.0 / tau;
       case 2: return 1.0;
-      default: return tau;
+      case 3: return tau;
+      default: return gauss_markov_avar(tau, gm_T_s);
     }
   };
   for (unsigned subset = 1; subset < 16; ++subset) {
@@ -177,6 +180,7 @@ NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsign
     std::vector<int> terms;
     for (int t = 0; t < 4; ++t)
       if (subset & (1u << t)) terms.push_back(t);
+    if (gm_T_s > 0) terms.push_back(4);  // the correlated (Gauss-Markov) term is in every subset
     const int p = static_cast<int>(terms.size());
     if (p > static_cast<int>(pts.size())) continue;
     Eigen::VectorXd c;
@@ -194,6 +198,7 @@ NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsign
         const double ci = c[i], si = std::sqrt(std::max(cov(i, i), 0.0));
         // σ of a square-root parameter: d√c = dc / (2√c).
         switch (t) {
+          case 4: break;  // the Gauss-Markov amplitude is not an IEEE 952 power-law term
           case 0: nf.terms.Q = std::sqrt(ci / 3.0); nf.sigma[0] = si / 3.0 / (2.0 * nf.terms.Q); break;
           case 1: nf.terms.N = std::sqrt(ci); nf.sigma[1] = si / (2.0 * nf.terms.N); break;
           case 2: nf.terms.B = std::sqrt(ci / kFl); nf.sigma[2] = si / kFl / (2.0 * nf.terms.B); break;
@@ -203,7 +208,7 @@ NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsign
       best = nf;
     }
   }
-  if (!std::isfinite(best.chi2)) best.chi2 = 0.0;
+  if (!std::isfinite(best.chi2) && !(gm_T_s > 0)) best.chi2 = 0.0;
   return best;
 }
 

@@ -64,6 +64,9 @@ struct NoiseFit {
 // subset). chi2 = Σ edf/2 (AVAR − fit)²/fit²; H = the weighted information (for σ).
 bool fit_allan_terms(const std::vector<AllanAccumulator::Point>& pts, const std::function<double(int, double)>& basis, int p,
                      Eigen::VectorXd& c, Eigen::MatrixXd& H, double& chi2);
-NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsigned enabled_mask = 0xF);
+// gm_T_s > 0: every subset also carries an exponentially correlated (first-order Gauss-Markov) term of that
+// correlation time (IEEE 952's correlated noise; an output filter's bend at the short end), amplitude fitted,
+// not reported among the terms; chi2 stays +inf when no subset fits with it.
+NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsigned enabled_mask = 0xF, double gm_T_s = 0.0);
 
 }  // namespace imuforge::diagnosis

@@ -47,6 +47,36 @@ double systematic(double rms, double floor) { return std::sqrt(std::max(rms * rm
 
 const char* kAxes[6] = {"accel.x", "accel.y", "accel.z", "gyro.x", "gyro.y", "gyro.z"};
 
+// The loop's first half: simulate the campaign with the sensor, diagnose against the basic model with
+// --emit-model (dir/extended.json). Exit codes are returned for the caller to assert.
+struct Loop {
+  int simulate_rc = -1, diagnose_rc = -1;
+  std::string log, base;
+  fs::path ext;
+  json d;                          // diagnosis.json
+  std::set<std::string> selected; // "sensor.effect"
+};
+
+Loop simulate_and_diagnose(const fs::path& dir, const json& campaign, const json& sensor, int seed) {
+  Loop L;
+  std::ofstream(dir / "campaign.json") << campaign.dump(1);
+  std::ofstream(dir / "sensor.json") << sensor.dump(1);
+  L.log = (dir / "run.bin").string();
+  L.simulate_rc = run("simulate --campaign " + (dir / "campaign.json").string() + " --sensor " +
+                          (dir / "sensor.json").string() + " --seed " + std::to_string(seed) + " --out " + L.log,
+                      dir / "sim.txt");
+  if (L.simulate_rc != 0) return L;
+  L.base = std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/model-basic.json";
+  L.ext = dir / "extended.json";
+  L.diagnose_rc = run("diagnose --log " + L.log + " --model " + L.base + " --out " + (dir / "diag").string() +
+                          " --emit-model " + L.ext.string(),
+                      dir / "diag.txt");
+  if (L.diagnose_rc != 0) return L;
+  L.d = read(dir / "diag" / "diagnosis.json");
+  for (const auto& s : L.d["selected"]) L.selected.insert(s["sensor"].get<std::string>() + "." + s["effect"].get<std::string>());
+  return L;
+}
+
 }  // namespace
 
 TEST(DiagnosisClosedLoop, EmittedModelSolvesToTheDiagnosedGap) {
@@ -69,24 +99,14 @@ TEST(DiagnosisClosedLoop, EmittedModelSolvesToTheDiagnosedGap) {
       if (st["type"] != "sine") steps.push_back(st);
     ph["steps"] = steps;
   }
-  {
-    std::ofstream(dir / "campaign.json") << campaign.dump(1);
-    std::ofstream(dir / "sensor.json") << sensor.dump(1);
-  }
-  const std::string log = (dir / "run.bin").string();
-  ASSERT_EQ(run("simulate --campaign " + (dir / "campaign.json").string() + " --sensor " + (dir / "sensor.json").string() +
-                    " --seed 7 --out " + log,
-                dir / "sim.txt"),
-            0);
-  const std::string base = std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/model-basic.json";
-  const fs::path ext = dir / "extended.json";
-  ASSERT_EQ(run("diagnose --log " + log + " --model " + base + " --out " + (dir / "diag").string() + " --emit-model " +
-                    ext.string(),
-                dir / "diag.txt"),
-            0);
-  const json d = read(dir / "diag" / "diagnosis.json");
-  std::set<std::string> selected;
-  for (const auto& s : d["selected"]) selected.insert(s["sensor"].get<std::string>() + "." + s["effect"].get<std::string>());
+  const Loop L = simulate_and_diagnose(dir, campaign, sensor, 7);
+  ASSERT_EQ(L.simulate_rc, 0);
+  ASSERT_EQ(L.diagnose_rc, 0);
+  const std::string& log = L.log;
+  const std::string& base = L.base;
+  const fs::path& ext = L.ext;
+  const json& d = L.d;
+  const std::set<std::string>& selected = L.selected;
   for (const char* e : {"gyro.g_sensitivity", "accel.scale_asymmetry", "gyro.timing"}) EXPECT_TRUE(selected.count(e)) << e;
 
   // The emitted model: base + selected, minus what the fixture solver cannot observe, which is named.
@@ -182,24 +202,14 @@ TEST(DiagnosisClosedLoop, LeftOutEffectsAreExactlyTheUnobservableOnes) {
     }
     ph["steps"] = steps;
   }
-  {
-    std::ofstream(dir / "campaign.json") << campaign.dump(1);
-    std::ofstream(dir / "sensor.json") << sensor.dump(1);
-  }
-  const std::string log = (dir / "run.bin").string();
-  ASSERT_EQ(run("simulate --campaign " + (dir / "campaign.json").string() + " --sensor " + (dir / "sensor.json").string() +
-                    " --seed 11 --out " + log,
-                dir / "sim.txt"),
-            0);
-  const std::string base = std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/model-basic.json";
-  const fs::path ext = dir / "extended.json";
-  ASSERT_EQ(run("diagnose --log " + log + " --model " + base + " --out " + (dir / "diag").string() + " --emit-model " +
-                    ext.string(),
-                dir / "diag.txt"),
-            0);
-  const json d = read(dir / "diag" / "diagnosis.json");
-  std::set<std::string> selected;
-  for (const auto& s : d["selected"]) selected.insert(s["sensor"].get<std::string>() + "." + s["effect"].get<std::string>());
+  const Loop L = simulate_and_diagnose(dir, campaign, sensor, 11);
+  ASSERT_EQ(L.simulate_rc, 0);
+  ASSERT_EQ(L.diagnose_rc, 0);
+  const std::string& log = L.log;
+  const std::string& base = L.base;
+  const fs::path& ext = L.ext;
+  const json& d = L.d;
+  const std::set<std::string>& selected = L.selected;
   ASSERT_TRUE(selected.count("accel.size_effect")) << d["selected"].dump();
   const json m = read(ext);
   EXPECT_TRUE(m["effects"].contains("accel.size_effect")) << m.dump();
