@@ -114,6 +114,19 @@ struct Options {
   std::array<double, kNumAxes> claimed_N{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
                                          std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
                                          std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  // Whole-log wander (docs/diagnosis.md § 2): per axis, a flicker B or a rate random walk K that the likelihood
+  // and the held-out variances carry instead of the static dwells' (NaN = the dwells'). Set by diagnose()
+  // itself when the whole log's REML level exceeds the dwells' significantly but by no more than
+  // wander_max_factor (Allan deviation at a quarter of the log).
+  std::array<double, kNumAxes> wander_B{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+                                        std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+                                        std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  std::array<double, kNumAxes> wander_K = wander_B;
+  bool whole_log_wander = true;     // estimate it and adopt it (off: the static dwells' level only)
+  double wander_max_factor = 4.0;   // a whole-log wander above this × the dwells' is not wander: a deterministic
+                                    // residual (out-of-catalog) that must stay visible as such
+  double wander_max_z = 6.0;        // nor is one whose largest standardised innovation exceeds this (a jump)
+  double wander_min_whiteness_p = 1e-6;  // nor one that leaves its innovations correlated (a periodic bias)
   // Optional Allan curve of a simulation of the same campaign (from --sim), per axis.
   std::array<std::vector<AllanAccumulator::Point>, kNumAxes> sim_allan;
 };
@@ -188,7 +201,7 @@ struct ScatterPoint {
 
 // An axis that stays above its noise after selection, and what its held-out residual follows.
 struct SignatureEntry {
-  std::string input;   // "f_x", "f_x*f_y", "w_z^2", "T", "Tdot", "time", "segment", "cos(table angle 2)", ...
+  std::string input;   // "f_x", "f_x*f_y", "w_z^2", "f_y^3", "w_x^3", "T", "Tdot", "time", "segment", "cos(table angle 2)", ...
   double correlation = 0;
 };
 struct Unexplained {
@@ -212,6 +225,20 @@ struct DiagnosisResult {
   std::array<NoiseFit, kNumAxes> noise;          // IEEE 952 terms of the Allan curve (report)
   std::array<StochasticModel, kNumAxes> stoch;   // the model carried into the likelihood (noise_model.h)
   std::array<double, kNumAxes> rw_prior_var{};   // random-walk bias variance at a segment start
+  // Whole-log wander of the final model (REML over the block means, noise_model.h) against the static dwells'
+  // likelihood level; adopted = carried into this result's likelihood and held-out variances.
+  struct Wander {
+    std::string kind;                 // "", "flicker", "random_walk"
+    double value = 0;                 // flicker B or K
+    double ratio = 1;                 // Allan deviation at D/4: whole log / dwells
+    double gain = 0;                  // −2 log L gain over the dwells' level
+    double max_abs_z = 0;             // largest standardised innovation under it (noise_model.h)
+    double whiteness_p = 1;           // Ljung–Box p of those innovations
+    bool beyond_limit = false, adopted = false;
+    std::string beyond_reason;        // "too_large" (ratio > wander_max_factor), "jump" (max_abs_z > wander_max_z)
+                                      // or "periodic" (whiteness_p < wander_min_whiteness_p)
+  };
+  std::array<Wander, kNumAxes> wander{};
   std::array<double, kNumAxes> claimed_N{};
   std::array<std::vector<AllanAccumulator::Point>, kNumAxes> sim_allan;
   // Results

@@ -1,4 +1,5 @@
 #include "host/diagnosis/noise_model.h"
+#include "host/diagnosis/stats.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -27,6 +28,13 @@ double flicker_bank_avar(double tau_s, const std::vector<double>& bank_tau_s) {
   double s = 0;
   for (double T : bank_tau_s) s += gauss_markov_avar(tau_s, T);
   return s;
+}
+
+double flicker_B_of_sigma(double bank_sigma, const std::vector<double>& bank_tau_s) {
+  if (bank_tau_s.empty() || !(bank_sigma > 0)) return 0.0;
+  // IEEE 952: the flicker floor of the Allan variance is (2 ln 2 / π) B²; the bank is flat to a few % there.
+  const double floor = flicker_bank_avar(std::sqrt(bank_tau_s.front() * bank_tau_s.back()), bank_tau_s);
+  return std::sqrt(bank_sigma * bank_sigma * floor * M_PI / (2.0 * std::log(2.0)));
 }
 
 double StochasticModel::avar(double tau_s) const {
@@ -117,7 +125,7 @@ void flicker_upper_limit(const std::vector<AllanAccumulator::Point>& pts, double
   }
   if (!(last_ok > c0)) return;
   m.bank_sigma_lik = std::sqrt(last_ok);
-  m.flicker_B_upper = std::sqrt(last_ok * floor1 * M_PI / (2.0 * std::log(2.0)));
+  m.flicker_B_upper = flicker_B_of_sigma(m.bank_sigma_lik, bank);
   if (m.bank_tau_s.empty()) m.bank_tau_s = bank;
 }
 
@@ -196,8 +204,7 @@ StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>&
               m.bank_sigma = std::sqrt(c[i]);
               m.bank_tau_s = bank;
               // B from the bank's Allan floor inside its span (flat to a few % there).
-              const double floor = flicker_bank_avar(std::sqrt(bank.front() * bank.back()), bank);
-              m.flicker_B = std::sqrt(c[i] * floor * M_PI / (2.0 * std::log(2.0)));
+              m.flicker_B = flicker_B_of_sigma(m.bank_sigma, bank);
               break;
             }
           }
@@ -273,6 +280,136 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
     P -= Kg * Kg.transpose() * Si;
     P = 0.5 * (P + P.transpose());
   }
+}
+
+
+std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
+                                               const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
+                                               double rw_prior_var, double duration_s, double ratio_max) {
+  std::array<WholeLogWander, 2> out;
+  const int n = static_cast<int>(rows.rows()), c = static_cast<int>(rows.cols()), P = c - 1;
+  if (n <= P + 2 || !(duration_s > 0)) return out;
+  Eigen::MatrixXd innov(n, c);
+  Eigen::VectorXd S(n);
+  // −2 log L_REML: Σ log S + χ² of the GLS fit + log det of the columns' information.
+  double max_abs_z = 0, whiteness_p = 1;
+  auto m2ll = [&](const StochasticModel& mm, double rw0) {
+    whiten_segment(mm, t_s, dur_s, rows, rw0, innov, S);
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(P, P);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(P);
+    double q = 0, logS = 0;
+    for (int i = 0; i < n; ++i) {
+      const double w = 1.0 / S[i];
+      if (P > 0) {
+        const Eigen::VectorXd x = innov.row(i).tail(P).transpose();
+        H.selfadjointView<Eigen::Lower>().rankUpdate(x, w);
+        g += w * innov(i, 0) * x;
+      }
+      q += w * innov(i, 0) * innov(i, 0);
+      logS += std::log(S[i]);
+    }
+    if (P == 0) return logS + q;
+    H = H.selfadjointView<Eigen::Lower>();
+    // Scaled LDLT; columns with no information (a pivot ~0) add nothing to either term.
+    const Eigen::VectorXd sc = H.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+    const Eigen::MatrixXd Hs = sc.asDiagonal() * H * sc.asDiagonal();
+    Eigen::LDLT<Eigen::MatrixXd> ldlt(Hs);
+    const Eigen::VectorXd gs = sc.asDiagonal() * g;
+    double logdet = 0;
+    const Eigen::VectorXd d = ldlt.vectorD();
+    for (int i = 0; i < P; ++i)
+      if (d[i] > 1e-12) logdet += std::log(d[i]) - 2.0 * std::log(sc[i]);
+    const Eigen::VectorXd theta = sc.asDiagonal() * ldlt.solve(gs);
+    max_abs_z = 0;
+    Eigen::VectorXd e(n);
+    for (int i = 0; i < n; ++i) {
+      e[i] = (innov(i, 0) - innov.row(i).tail(P).dot(theta)) / std::sqrt(S[i]);
+      max_abs_z = std::max(max_abs_z, std::fabs(e[i]));
+    }
+    const int L = std::min(10, n / 5);
+    whiteness_p = 1;
+    if (L >= 1) {
+      const double mean = e.mean();
+      const Eigen::VectorXd ec = e.array() - mean;
+      const double c0 = ec.squaredNorm();
+      double Q = 0;
+      for (int k = 1; k <= L && c0 > 0; ++k) {
+        const double rk = ec.head(n - k).dot(ec.tail(n - k)) / c0;
+        Q += rk * rk / static_cast<double>(n - k);
+      }
+      Q *= static_cast<double>(n) * static_cast<double>(n + 2);
+      whiteness_p = chi2_sf(Q, L);
+    }
+    return logS + q - gs.dot(ldlt.solve(gs)) + logdet;
+  };
+  StochasticModel m0 = m;
+  m0.bank_sigma = std::max(m.bank_sigma, m.bank_sigma_lik);  // the likelihood's own level
+  const double tau_long = 0.25 * duration_s;
+  const double avar0 = m0.avar(tau_long);
+  if (!(avar0 > 0)) return out;
+  const double base = m2ll(m0, rw_prior_var);
+  if (!std::isfinite(base)) return out;
+  const double step = std::pow(2.0, 0.25);
+  // Each line's maximiser, then its residual checks (jump, whiteness) under it.
+  auto finish = [&](WholeLogWander& w, double line_best, const StochasticModel& mm, double rw0) {
+    w.gain = base - line_best;
+    m2ll(mm, rw0);
+    w.max_abs_z = max_abs_z;
+    w.whiteness_p = whiteness_p;
+  };
+  // Flicker: the bank's σ raised (a bank exists whenever the Allan fit had points).
+  if (!m.bank_tau_s.empty() && m0.bank_sigma > 0) {
+    StochasticModel mf = m0;
+    WholeLogWander& w = out[0];
+    double line_best = base;
+    for (double s = m0.bank_sigma * step;; s *= step) {
+      mf.bank_sigma = mf.bank_sigma_lik = s;
+      const double ratio = std::sqrt(mf.avar(tau_long) / avar0);
+      if (ratio > ratio_max) break;
+      const double v = m2ll(mf, rw_prior_var);
+      if (!std::isfinite(v)) break;
+      if (v < line_best) {
+        line_best = v;
+        w.kind = WholeLogWander::kFlicker;
+        w.bank_sigma = s;
+        w.B = flicker_B_of_sigma(s, m.bank_tau_s);
+        w.ratio = ratio;
+      } else if (v > line_best + 10.0) {
+        break;  // far past this line's maximum (the likelihood is unimodal along one level)
+      }
+    }
+    if (w.kind != WholeLogWander::kNone) {
+      mf.bank_sigma = mf.bank_sigma_lik = w.bank_sigma;
+      finish(w, line_best, mf, rw_prior_var);
+    }
+  }
+  // Random walk: K raised from its fit, or from where it adds 1 % to the Allan variance at D/4.
+  {
+    StochasticModel mk = m0;
+    WholeLogWander& w = out[1];
+    double line_best = base;
+    const double k_start = std::max(m.K, 0.1 * std::sqrt(3.0 * avar0 / tau_long));
+    for (double k = k_start * step;; k *= step) {
+      mk.K = k;
+      const double ratio = std::sqrt(mk.avar(tau_long) / avar0);
+      if (ratio > ratio_max) break;
+      const double v = m2ll(mk, k * k * duration_s / 6.0);
+      if (!std::isfinite(v)) break;
+      if (v < line_best) {
+        line_best = v;
+        w.kind = WholeLogWander::kRandomWalk;
+        w.K = k;
+        w.ratio = ratio;
+      } else if (v > line_best + 10.0) {
+        break;
+      }
+    }
+    if (w.kind != WholeLogWander::kNone) {
+      mk.K = w.K;
+      finish(w, line_best, mk, w.K * w.K * duration_s / 6.0);
+    }
+  }
+  return out;
 }
 
 double block_covariance(const StochasticModel& m, double ti, double di, double tj, double dj, bool same, double t_start,

@@ -13,6 +13,7 @@
 // effect; the blocks of one segment are no longer counted as independent evidence.
 #pragma once
 
+#include <array>
 #include <utility>
 #include <vector>
 
@@ -69,6 +70,36 @@ StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>&
 // Sets m.bank_sigma_lik / flicker_B_upper: the largest flicker level whose Allan χ² (other terms of m
 // refitted) exceeds the best by at most 2.71 (one-sided 95 %). tmin: shortest cluster time, T_hi: horizon.
 void flicker_upper_limit(const std::vector<AllanAccumulator::Point>& pts, double tmin, double T_hi, StochasticModel& m);
+
+// B of a flicker bank of common state σ (the bank's Allan floor inside its span is 0.664² B²).
+double flicker_B_of_sigma(double bank_sigma, const std::vector<double>& bank_tau_s);
+
+// The bias wander the WHOLE log supports (docs/diagnosis.md § 2, "whole-log wander"). The static dwells show
+// the wander only up to their own length (tens of seconds); the block means of a log whose plateaus lie an hour
+// apart show the rest. Given the deterministic columns, the restricted likelihood of the block means (REML: the
+// columns are profiled out and log det of their information counted, so what the fit absorbs does not bias the
+// level low) is maximised over two one-parameter raises of the model's long-term noise, each on a 2^(1/4) grid
+// upward from the model's own likelihood level: the flicker bank's σ, or the rate random walk K (its offset
+// prior K²·D/6 with it). Returns each line's maximiser ({flicker, random walk}; kind kNone where no raise
+// improves the likelihood), measured by the Allan deviation it gives at a quarter of the log duration against
+// the model's own there (`ratio`), searched up to ratio_max, with its residual checks.
+// rows: [z | x] per block in time order, as whiten_segment takes them. O(grid · n · (P + states²)).
+struct WholeLogWander {
+  enum Kind { kNone, kFlicker, kRandomWalk } kind = kNone;
+  double bank_sigma = 0, B = 0;  // kFlicker: the maximiser and its flicker B
+  double K = 0;                  // kRandomWalk: the maximiser
+  double ratio = 1;              // Allan deviation at D/4: raised model / the model's own
+  double gain = 0;               // −2 log L(model's own level) − (−2 log L(maximiser)) ≥ 0
+  // Largest standardised innovation of the GLS residual under the maximiser: Gaussian wander keeps it near
+  // √(2 ln n); one jump (a bias step) that a random walk "explains" on average stands out by tens.
+  double max_abs_z = 0;
+  // Ljung–Box p-value of those innovations (lags 1..10, block order): whitened by the right noise model they are
+  // white; a slow periodic bias (a line in the spectrum) that the raised wander "explains" leaves them correlated.
+  double whiteness_p = 1;
+};
+std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
+                                               const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
+                                               double rw_prior_var, double duration_s, double ratio_max);
 
 // GLS whitening of one segment's block means by a Kalman filter over the bias states (GM, RW).
 // Blocks in time order: mid time t_s, duration dur_s, observation row [z | x] (1 + P columns).

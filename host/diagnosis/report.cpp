@@ -62,6 +62,20 @@ std::string esc(const std::string& s) {
 
 std::string unit_of(int a) { return a < 3 ? "m/s^2" : "rad/s"; }
 
+// What became of a ranked candidate by the end (the ranking's "significant" is the first step's).
+std::string outcome(const DiagnosisResult& r, const std::string& sensor, const std::string& effect) {
+  const std::string key = sensor + "." + effect;
+  for (const auto& st : r.selected)
+    if (st.sensor == sensor && st.effect == effect) return "selected";
+  for (const auto& w : r.warnings)
+    if (w.rfind(key + " withdrawn: what it leaves", 0) == 0) return "withdrawn: its form does not fit";
+  for (const auto& u : r.unexplained)
+    if (std::find(u.withdrawn.begin(), u.withdrawn.end(), key) != u.withdrawn.end())
+      return "withdrawn: leaves " + u.axis + " unexplained";
+  if (std::find(r.dropped.begin(), r.dropped.end(), key) != r.dropped.end()) return "dropped by a backward step";
+  return "not selected";
+}
+
 }  // namespace
 
 std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
@@ -79,6 +93,15 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       if (!ue->signature.empty())
         line += "; the residual follows " + ue->signature.front().input + " (r = " + fmt("%.2f", ue->signature.front().correlation) + ")";
       line += " (held-out chi2/dof " + fmt("%.3g", ue->chi2_dof_after) + ")";
+      // Why it is not read as noise either (the whole log's wander, diagnose.h Options::wander_*).
+      const auto& w = r.wander[u];
+      if (w.beyond_limit && w.beyond_reason == "too_large")
+        line += "; as noise it would take a bias wander " + fmt("%.2g", w.ratio) + "x what the static dwells show";
+      else if (w.beyond_limit && w.beyond_reason == "jump")
+        line += "; not a stationary bias wander either: one jump of " + fmt("%.1f", w.max_abs_z) + " sigma";
+      else if (w.beyond_limit && w.beyond_reason == "periodic")
+        line += "; not a stationary bias wander either: what is left under one stays correlated (Ljung-Box p " +
+                fmt("%.1g", w.whiteness_p) + ")";
     } else {
       std::vector<std::string> by;
       for (const auto& st : r.selected)
@@ -96,6 +119,9 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     const auto& m = r.stoch[u];
     if (m.gm_sigma > 0) line += "; drift: Gauss-Markov sigma " + fmt("%.3g", m.gm_sigma) + ", tau " + fmt("%.3g", m.gm_tau_s) + " s";
     if (m.bank_sigma > 0) line += "; flicker bias instability B " + fmt("%.3g", m.flicker_B);
+    if (r.wander[u].adopted)
+      line += "; whole-log bias wander " + fmt("%.2g", r.wander[u].ratio) + "x the static dwells' (" +
+              (r.wander[u].kind == "flicker" ? "flicker B " : "rate random walk ") + fmt("%.3g", r.wander[u].value) + ")";
     if (m.K > 0) line += "; rate random walk " + fmt("%.3g", m.K);
     out.push_back(line);
   }
@@ -129,6 +155,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
       e["heldout_shrink_pct"] = num(c.heldout_shrink_pct);
       e["significant"] = c.significant;
       e["magnitude"] = params_json(c.magnitude);
+      e["outcome"] = outcome(r, c.sensor, c.effect);
       nlohmann::json md = nlohmann::json::array();
       for (std::size_t k = 0; k < c.min_detectable.size() && k < c.magnitude.size(); ++k)
         md.push_back({{"name", c.magnitude[k].name}, {"axis", c.magnitude[k].axis}, {"value", num(c.min_detectable[k])}});
@@ -214,7 +241,10 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                            {"claimed_N", num(r.claimed_N[u])}, {"allan", pts},
                            {"likelihood_model", {{"N", num(m.N)}, {"Q", num(m.Q)}, {"gm_sigma", num(m.gm_sigma)},
                                                  {"gm_tau_s", num(m.gm_tau_s)}, {"flicker_B", num(m.flicker_B)}, {"flicker_B_upper", num(m.flicker_B_upper)},
-                                                 {"K", num(m.K)}}}};
+                                                 {"K", num(m.K)}}},
+                           {"whole_log_wander", {{"kind", r.wander[u].kind}, {"value", num(r.wander[u].value)},
+                                                 {"ratio", num(r.wander[u].ratio)}, {"gain", num(r.wander[u].gain)}, {"max_abs_z", num(r.wander[u].max_abs_z)}, {"whiteness_p", num(r.wander[u].whiteness_p)},
+                                                 {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}}};
   }
   j["noise"] = noise;
   nlohmann::json cells = nlohmann::json::array();
@@ -255,6 +285,10 @@ std::string summary_text(const DiagnosisResult& r) {
     o << "  " << (c.significant ? "* " : "  ") << c.sensor << "." << c.effect << "  -log10p=" << fmt("%.1f", c.score)
       << "  dBIC=" << fmt("%.1f", c.delta_bic) << "  held-out shrink=" << fmt("%.0f", c.heldout_shrink_pct) << "%";
     if (!c.min_detectable.empty()) o << "  5sigma-detectable " << detectable_range(c);
+    if (c.significant) {
+      const std::string oc = outcome(r, c.sensor, c.effect);
+      if (oc != "selected") o << "  -> " << oc;
+    }
     o << "\n";
   }
   std::vector<std::string> unexc;
@@ -492,16 +526,17 @@ std::string report_html(const DiagnosisResult& r) {
   h << "<h2>Where: held-out residuals per axis and condition</h2><div style=\"overflow-x:auto;max-width:100%\">" << heatmap_svg(r)
     << "</div>";
   if (r.ranking.empty()) h << "<h2>Which: ranking</h2><p>No effect was scored: nothing can be withheld from this log (too short to tell).</p>";
-  else h << "<h2>Which: ranking</h2><table><tr><th>#</th><th>effect</th><th>-log10 p</th><th>p</th><th>dBIC</th><th>held-out shrink %</th><th>significant</th><th title='the magnitude each component would show at 5 sigma on this log'>5&sigma; detectable</th></tr>";
+  else h << "<h2>Which: ranking</h2><table><tr><th>#</th><th>effect</th><th>-log10 p</th><th>p</th><th>dBIC</th><th>held-out shrink %</th><th title='at the first step, against the model as given'>significant (step 1)</th><th>outcome</th><th title='the magnitude each component would show at 5 sigma on this log'>5&sigma; detectable</th></tr>";
   int i = 0;
   for (const auto& c : r.ranking) {
     ++i;
     h << "<tr><td>" << i << "</td><td>" << esc(c.sensor + "." + c.effect) << "</td>";
     if (c.excitable)
       h << "<td>" << fmt("%.2f", c.score) << "</td><td>" << fmt("%.3g", c.p_value) << "</td><td>" << fmt("%.1f", c.delta_bic)
-        << "</td><td>" << fmt("%.0f", c.heldout_shrink_pct) << "</td><td>" << (c.significant ? "yes" : "no") << "</td><td>" << esc(detectable_range(c)) << "</td></tr>";
+        << "</td><td>" << fmt("%.0f", c.heldout_shrink_pct) << "</td><td>" << (c.significant ? "yes" : "no") << "</td><td>"
+        << esc(outcome(r, c.sensor, c.effect)) << "</td><td>" << esc(detectable_range(c)) << "</td></tr>";
     else
-      h << "<td colspan='6'>not excited by this campaign: cannot be ruled out</td></tr>";
+      h << "<td colspan='7'>not excited by this campaign: cannot be ruled out</td></tr>";
   }
   if (!r.ranking.empty()) h << "</table>";
   if (r.plot_variable.empty()) h << "<h2>Residuals before and after</h2>" << scatter_svg(r);

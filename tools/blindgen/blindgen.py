@@ -511,6 +511,19 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T):
         return o['coefficient'] * np.linalg.norm(w_imu, axis=1)
     if kind == 'periodic':       # slow periodic bias (mains-cycled HVAC / supply), period P
         return o['amplitude'] * np.sin(2 * np.pi * t / o['period_s'] + o.get('phase_rad', 0.0))
+    j = AX.index(o['axis'])
+    if kind == 'g_cubed':        # gyro bias ~ f_j^3 (cubic g-sensitivity: odd in f like g_sensitivity, which it
+        return o['coefficient'] * f_imu[:, j] ** 3  # equals on the +-1 g faces and departs from on the tilts)
+    if kind == 'angle2':         # bias following twice the table heading (outer angle): a two-lobed field. Not the
+        # inner angle: on static poses that one sets the gravity direction, and cos(2 angle) = 2 cos^2 - 1 is then
+        # a square of the specific force, which the catalog has (g2_sensitivity, scale_nonlinearity)
+        return o['amplitude'] * np.cos(2 * ang[:, 2] + o.get('phase_rad', 0.0))
+    if kind == 'rate_memory':    # gyro bias set by the sign of the last rotation about its axis (backlash-like
+        w = w_imu[:, j]          # memory: it persists through the following static poses)
+        moving = np.abs(w) > o.get('threshold_rad_s', 0.2)
+        last = np.maximum.accumulate(np.where(moving, np.arange(len(w)), -1))
+        d = np.where(last >= 0, np.sign(w[np.maximum(last, 0)]), 0.0)
+        return o['amplitude'] * d
     raise ValueError('unknown out-of-catalog kind %r' % kind)
 
 
@@ -956,6 +969,8 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
             axes = [a for a in axes if a.startswith('gyro')] or ['gyro.' + str(rng.choice(list(AX)))]
         if ooc_kind == 'abs_rate':
             axes = [a for a in axes if a.startswith('accel')] or ['accel.' + str(rng.choice(list(AX)))]
+        if ooc_kind in ('g_cubed', 'rate_memory'):
+            axes = [a for a in axes if a.startswith('gyro')] or ['gyro.' + str(rng.choice(list(AX)))]
         for ax in axes:
             s, a = ax.split('.')
             amp = seg_noise(sensor, ax) * float(rng.uniform(20, 50)) * float(rng.choice([-1, 1]))
@@ -970,6 +985,12 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
                 o.update(coefficient=amp / math.radians(max(scenario['rates_dps'])))
             elif ooc_kind == 'periodic':
                 o.update(amplitude=amp, period_s=float(rng.uniform(400, 900)), phase_rad=float(rng.uniform(0, 2 * np.pi)))
+            elif ooc_kind == 'g_cubed':
+                o.update(coefficient=amp / 9.80665 ** 3)
+            elif ooc_kind == 'angle2':
+                o.update(amplitude=amp, phase_rad=float(rng.uniform(0, 2 * np.pi)))
+            elif ooc_kind == 'rate_memory':
+                o.update(amplitude=amp)
             ooc.append(o)
     elif kind == 'ooc_noise':
         # temperature-dependent white noise: stochastic, out of the catalog (its white level is constant)
@@ -1117,7 +1138,7 @@ def main(argv):
     c.add_argument('--sensor', help='sensor JSON (kind example)')
     c.add_argument('--class', dest='cls', choices=CLASSES)
     c.add_argument('--effect', help='kind single: e.g. gyro.g_sensitivity')
-    c.add_argument('--ooc', help='kind ooc: heading | bias_step | w_cubed | abs_rate | periodic')
+    c.add_argument('--ooc', help='kind ooc: heading | bias_step | w_cubed | abs_rate | periodic | g_cubed | angle2 | rate_memory')
     c.add_argument('--timing', help='kind single, effect *.timing: JSON of the components, e.g. {"ppm": 400}')
     c.add_argument('--g2-squares', action='store_true', help='also draw IEEE 1431 g^2 squares (x.xx ...)')
     c.add_argument('--format', default='csv', choices=['csv', 'bin'])

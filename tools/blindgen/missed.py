@@ -1,19 +1,38 @@
 #!/usr/bin/env python3
 """Per-case analysis of a blind battery run: present vs selected, and for each missed effect its entry in the
 diagnosis ranking (ΔBIC, held-out shrink, significance, implausible components), plus unexplained axes.
+`--ceiling` adds how far each present effect stands above the noise in the diagnosis's OWN fit of it
+(the largest |truth| / σ over its components, σ from the first-step ranking fit under the diagnosis's noise
+model): recall per band of that ratio. An effect below ~3 of its own σ cannot be told from the noise by any
+selection rule; what is missed above it is the selection's.
 
-  missed.py WORK/cases [--tag diag]
+  missed.py WORK/cases [--tag diag] [--ceiling]
 """
 import argparse
 import json
+import math
 import os
+
+
+def own_snr(d, t, effect):
+    """max over the effect's components of |truth| / σ of the diagnosis's first-step fit (0: not fitted)."""
+    for r in d.get('ranking', []):
+        if r['sensor'] + '.' + r['effect'] != effect:
+            continue
+        sig = {m['name']: m['sigma'] for m in r.get('magnitude', []) if m.get('sigma')}
+        z = [abs(v) / sig[n] for n, v in t.get('parameters', {}).items() if n.startswith(effect + '.') and sig.get(n)]
+        return max(z) if z else 0.0
+    return 0.0
 
 
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument('cases')
     ap.add_argument('--tag', default='diag')
+    ap.add_argument('--ceiling', action='store_true', help='recall by the effect\'s size over its own fitted sigma')
     a = ap.parse_args()
+    bands = [(0, 1), (1, 3), (3, 5), (5, 10), (10, math.inf)]
+    tally = {b: [0, 0] for b in bands}
     for name in sorted(os.listdir(a.cases)):
         dj = os.path.join(a.cases, name, a.tag, 'diagnosis.json')
         tj = os.path.join(a.cases, name, 'truth.json')
@@ -29,9 +48,23 @@ def main():
             print('   unexplained %s chi2/dof %.1f withdrawn %s' % (u['axis'], u['chi2_dof_after'], u.get('withdrawn')))
         for e in sorted(present - sel):
             i, r = rank.get(e, (None, {}))
-            print('   missed %-28s snr %7.1f rank %s dBIC %s shrink%% %s sig %s impl %s' % (
-                e, snr.get(e, float('nan')), i, '%.1f' % r['delta_bic'] if r else '-',
+            print('   missed %-28s snr %7.1f own %5.1f rank %s dBIC %s shrink%% %s sig %s impl %s' % (
+                e, snr.get(e, float('nan')), own_snr(d, t, e), i, '%.1f' % r['delta_bic'] if r else '-',
                 '%.1f' % r['heldout_shrink_pct'] if r else '-', r.get('significant'), r.get('implausible')))
+        if t.get('kind') in ('random', 'example'):
+            for e in present:
+                z = own_snr(d, t, e)
+                for b in bands:
+                    if b[0] <= z < b[1]:
+                        tally[b][0] += 1
+                        tally[b][1] += e in sel
+    if a.ceiling:
+        print('\nrecall of the random and example cases by |truth| / own fitted sigma (largest component):')
+        n_all = sum(v[0] for v in tally.values())
+        for b in bands:
+            n, k = tally[b]
+            print('  %4g - %-4g: %3d effects, %3d selected (%s)' % (b[0], b[1], n, k, '%.2f' % (k / n) if n else '-'))
+        print('  all        : %3d effects, %3d selected' % (n_all, sum(v[1] for v in tally.values())))
 
 
 if __name__ == '__main__':
