@@ -87,6 +87,9 @@ def suite(name):
         for i in range(2):
             cases.append(('ooc-%s-%d' % (kind, i), 'ooc', 4000 + 10 * k + i, {'ooc': kind}))
     cases.append(('ooc_noise-0', 'ooc_noise', 4100, {}))
+    # a realistic sensor: catalog effects plus one out-of-catalog bias (added 26 Nov 2026)
+    for k, kind in enumerate(blindgen.OOC_KINDS):
+        cases.append(('mixed-%s' % kind, 'mixed', 6000 + k, {'ooc': kind}))
     # clock drift accumulating >= 1 s over the run (issue 12: timing must hold to 1 s of shift), automotive noise
     cases.append(('single-accel.timing-1s', 'single', 5900, {'effect': 'accel.timing', 'cls': 'automotive', 'timing': {'ppm': 420.0, 'latency_s': 5e-4}}))
     cases.append(('single-gyro.timing-1s', 'single', 5901, {'effect': 'gyro.timing', 'cls': 'automotive', 'timing': {'ppm': -420.0}}))
@@ -201,6 +204,11 @@ def score(truth, d):
         r['top1'] = top1(d) == eff
         r['top1_effect'] = top1(d)
         r['mag3sigma'], r['mag_detail'] = magnitude_check(d, truth, eff)
+    if kind == 'mixed':
+        want = set(truth['unexplained_axes'])
+        r['ooc_axes'] = sorted(want)
+        r['named'] = want <= une
+        r['extra_unexplained'] = sorted(une - want)
     if kind == 'ooc':
         want = set(truth['unexplained_axes'])
         r['ooc_axes'] = sorted(want)
@@ -294,6 +302,15 @@ def summarise(rows):
         S['ooc.nothing_selected'] = frac([r['nothing_selected'] for r in oc])
         S['ooc.named'] = frac([r['named'] for r in oc])
         S['ooc.mean_extra_unexplained_axes'] = sum(len(r['extra_unexplained']) for r in oc) / len(oc)
+    mx = [r for r in by.get('mixed', []) if 'error' not in r]
+    if mx:
+        rec = [r['recall'] for r in mx if r['recall'] is not None]
+        S['mixed.n'] = len(mx)
+        S['mixed.mean_recall'] = sum(rec) / len(rec) if rec else float('nan')
+        rd = [r['recall_detectable'] for r in mx if r.get('recall_detectable') is not None]
+        S['mixed.mean_recall_detectable'] = sum(rd) / len(rd) if rd else float('nan')
+        S['mixed.frac_le1_false'] = frac([r['false'] <= 1 for r in mx])
+        S['mixed.named'] = frac([r['named'] for r in mx])
     nl = [r for r in by.get('null', []) if 'error' not in r]
     if nl:
         S['null.n'] = len(nl)
@@ -343,6 +360,9 @@ def print_table(rows, S, out=sys.stdout):
             other += ' pass=%s unexplained=%s' % ('Y' if r.get('pass') else 'N', ','.join(r['unexplained']) or '-')
             if r['category'] == 'ooc':
                 other += ' want=%s' % ','.join(r['ooc_axes'])
+        if r['category'] == 'mixed':
+            other += ' named=%s unexplained=%s want=%s' % ('Y' if r.get('named') else 'N', ','.join(r['unexplained']) or '-',
+                                                           ','.join(r['ooc_axes']))
         mf = ' '.join(['-%s%s' % (m, '(snr %g)' % r['missed_snr'][m] if m in r.get('missed_snr', {}) else '') for m in r['missed']] +
                       ['+' + m for m in r['false_effects']])
         w('%-34s %-10s %6s %5d  %-40s %s\n' % (r['name'][:34], r['category'], fmt_num(r['recall']), r['false'], mf, other))

@@ -22,7 +22,7 @@ Usage:
   blindgen.py case --kind random --seed 7 --out DIR          one case: DIR/log.csv, truth.json, sensor.json
   blindgen.py case --kind example --sensor docs/examples/sensor-automotive.json --seed 3 --out DIR
   blindgen.py selftest                                       checks of the generator's own physics
-Kinds: random (3-6 beyond-model effects), single, example, null, stochastic, ooc.
+Kinds: random (3-6 beyond-model effects), single, example, null, stochastic, ooc, mixed (random + one ooc).
 """
 import argparse
 import json
@@ -919,6 +919,30 @@ def seg_noise(sensor_json, key, T_seg=5.0):
     return math.sqrt(N * N / T_seg + (0.664 * B) ** 2 + lsb * lsb / 12 / (T_seg * 100))
 
 
+OOC_KINDS = ['heading', 'bias_step', 'w_cubed', 'abs_rate', 'periodic', 'g_cubed', 'angle2', 'rate_memory']
+
+
+def ooc_params(ooc_kind, amp, rng, scenario):
+    """The parameters of one out-of-catalog bias of size amp (SI, at the largest input it sees)."""
+    if ooc_kind == 'heading':
+        return dict(amplitude=amp, phase_rad=float(rng.uniform(0, 2 * np.pi)))
+    if ooc_kind == 'bias_step':
+        return dict(amplitude=amp, t_step_s=None)  # filled once the duration is known
+    if ooc_kind == 'w_cubed':
+        return dict(coefficient=amp / (math.radians(max(scenario['rates_dps']))) ** 3)
+    if ooc_kind == 'abs_rate':
+        return dict(coefficient=amp / math.radians(max(scenario['rates_dps'])))
+    if ooc_kind == 'periodic':
+        return dict(amplitude=amp, period_s=float(rng.uniform(400, 900)), phase_rad=float(rng.uniform(0, 2 * np.pi)))
+    if ooc_kind == 'g_cubed':
+        return dict(coefficient=amp / 9.80665 ** 3)
+    if ooc_kind == 'angle2':
+        return dict(amplitude=amp, phase_rad=float(rng.uniform(0, 2 * np.pi)))
+    if ooc_kind == 'rate_memory':
+        return dict(amplitude=amp)
+    raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
+
+
 def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, g2_squares=False, ooc_kind=None,
               timing=None):
     rng = np.random.default_rng(np.random.SeedSequence([seed, 12]))
@@ -975,23 +999,25 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
             s, a = ax.split('.')
             amp = seg_noise(sensor, ax) * float(rng.uniform(20, 50)) * float(rng.choice([-1, 1]))
             o = {'sensor': s, 'axis': a, 'kind': ooc_kind}
-            if ooc_kind == 'heading':
-                o.update(amplitude=amp, phase_rad=float(rng.uniform(0, 2 * np.pi)))
-            elif ooc_kind == 'bias_step':
-                o.update(amplitude=amp, t_step_s=None)  # filled once the duration is known
-            elif ooc_kind == 'w_cubed':
-                o.update(coefficient=amp / (math.radians(max(scenario['rates_dps']))) ** 3)
-            elif ooc_kind == 'abs_rate':
-                o.update(coefficient=amp / math.radians(max(scenario['rates_dps'])))
-            elif ooc_kind == 'periodic':
-                o.update(amplitude=amp, period_s=float(rng.uniform(400, 900)), phase_rad=float(rng.uniform(0, 2 * np.pi)))
-            elif ooc_kind == 'g_cubed':
-                o.update(coefficient=amp / 9.80665 ** 3)
-            elif ooc_kind == 'angle2':
-                o.update(amplitude=amp, phase_rad=float(rng.uniform(0, 2 * np.pi)))
-            elif ooc_kind == 'rate_memory':
-                o.update(amplitude=amp)
+            o.update(ooc_params(ooc_kind, amp, rng, scenario))
             ooc.append(o)
+    elif kind == 'mixed':
+        # a realistic sensor: 3-6 catalog effects AND one out-of-catalog bias on one axis (20-50 segment sigma).
+        # The diagnosis must keep the catalog effects and name the axis, selecting nothing for it.
+        keys = rng.choice(CANDIDATES, size=int(rng.integers(3, 7)), replace=False)
+        for key in keys:
+            sensor['effects'][str(key)] = draw_effect(rng, str(key), cls, g2_squares=g2_squares)
+        ooc_kind = ooc_kind or str(rng.choice(OOC_KINDS))
+        ax = str(rng.choice(STOCH_AXES))
+        if ooc_kind in ('w_cubed', 'g_cubed', 'rate_memory'):
+            ax = 'gyro.' + ax.split('.')[1]
+        if ooc_kind == 'abs_rate':
+            ax = 'accel.' + ax.split('.')[1]
+        s, a = ax.split('.')
+        amp = seg_noise(sensor, ax) * float(rng.uniform(20, 50)) * float(rng.choice([-1, 1]))
+        o = {'sensor': s, 'axis': a, 'kind': ooc_kind}
+        o.update(ooc_params(ooc_kind, amp, rng, scenario))
+        ooc.append(o)
     elif kind == 'ooc_noise':
         # temperature-dependent white noise: stochastic, out of the catalog (its white level is constant)
         ax = str(rng.choice(STOCH_AXES))
@@ -1131,7 +1157,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest='cmd', required=True)
     c = sub.add_parser('case', help='write one case (log + truth + sensor)')
-    c.add_argument('--kind', required=True, choices=['random', 'single', 'example', 'null', 'stochastic', 'ooc', 'ooc_noise'])
+    c.add_argument('--kind', required=True, choices=['random', 'single', 'example', 'null', 'stochastic', 'ooc', 'ooc_noise', 'mixed'])
     c.add_argument('--seed', type=int, required=True)
     c.add_argument('--out', required=True)
     c.add_argument('--size', default='full', choices=['full', 'short'])
