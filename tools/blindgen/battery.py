@@ -270,14 +270,19 @@ def summarise(rows):
         xs = [x for x in xs if x is not None]
         return (sum(1 for x in xs if x) / len(xs)) if xs else float('nan')
 
+    def recall_figures(cat, rows_):
+        """n, mean recall (all and over snr >= DETECTABLE_SNR) and the fraction with <= 1 false effect."""
+        def mean(xs):
+            xs = [x for x in xs if x is not None]
+            return sum(xs) / len(xs) if xs else float('nan')
+        S[cat + '.n'] = len(rows_)
+        S[cat + '.mean_recall'] = mean([r['recall'] for r in rows_])
+        S[cat + '.mean_recall_detectable'] = mean([r.get('recall_detectable') for r in rows_])
+        S[cat + '.frac_le1_false'] = frac([r['false'] <= 1 for r in rows_])
+
     rnd = [r for r in by.get('random', []) if 'error' not in r]
     if rnd:
-        rec = [r['recall'] for r in rnd if r['recall'] is not None]
-        S['random.n'] = len(rnd)
-        S['random.mean_recall'] = sum(rec) / len(rec) if rec else float('nan')
-        rd = [r['recall_detectable'] for r in rnd if r.get('recall_detectable') is not None]
-        S['random.mean_recall_detectable'] = sum(rd) / len(rd) if rd else float('nan')
-        S['random.frac_le1_false'] = frac([r['false'] <= 1 for r in rnd])
+        recall_figures('random', rnd)
         S['random.mean_false'] = sum(r['false'] for r in rnd) / len(rnd)
         S['random.frac_chi2_after_le3'] = frac([r['max_chi2_after'] <= 3 for r in rnd])
         S['random.frac_unexplained'] = frac([bool(r['unexplained']) for r in rnd])  # in-catalog cases: should stay low
@@ -304,12 +309,7 @@ def summarise(rows):
         S['ooc.mean_extra_unexplained_axes'] = sum(len(r['extra_unexplained']) for r in oc) / len(oc)
     mx = [r for r in by.get('mixed', []) if 'error' not in r]
     if mx:
-        rec = [r['recall'] for r in mx if r['recall'] is not None]
-        S['mixed.n'] = len(mx)
-        S['mixed.mean_recall'] = sum(rec) / len(rec) if rec else float('nan')
-        rd = [r['recall_detectable'] for r in mx if r.get('recall_detectable') is not None]
-        S['mixed.mean_recall_detectable'] = sum(rd) / len(rd) if rd else float('nan')
-        S['mixed.frac_le1_false'] = frac([r['false'] <= 1 for r in mx])
+        recall_figures('mixed', mx)
         S['mixed.named'] = frac([r['named'] for r in mx])
     nl = [r for r in by.get('null', []) if 'error' not in r]
     if nl:
