@@ -1613,26 +1613,15 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     rows.col(P + 1) = c.array().square().matrix();
     rows.col(P + 2) = c.array().cube().matrix();
     whiten_segment(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S);
-    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(P + 2, P + 2);
-    Eigen::VectorXd g = Eigen::VectorXd::Zero(P + 2);
-    double q = 0;
-    for (int b = 0; b < B; ++b) {
-      const Eigen::VectorXd x = innov.row(b).tail(P + 2).transpose();
-      H += x * x.transpose() / S[b];
-      g += x * innov(b, 0) / S[b];
-      q += innov(b, 0) * innov(b, 0) / S[b];
-    }
-    // χ² left by the first n columns (scaled LDLT; a rank-deficient augmentation explains nothing new).
-    auto resid = [&](int n) {
-      if (n == 0) return q;
-      const Eigen::VectorXd sc = H.topLeftCorner(n, n).diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
-      const Eigen::MatrixXd Hs = sc.asDiagonal() * H.topLeftCorner(n, n) * sc.asDiagonal();
-      Eigen::LDLT<Eigen::MatrixXd> ldlt(Hs);
-      if (ldlt.info() != Eigen::Success) return q;
-      const Eigen::VectorXd gs = sc.asDiagonal() * g.head(n);
-      return q - gs.dot(ldlt.solve(gs));
-    };
-    const double q0 = resid(P), q1 = resid(P + 2);
+    // GLS fits with and without the two columns, on the shared estimator core (its priority Cholesky drops
+    // an augmentation column the model's columns already span: it then explains nothing new).
+    estimator::NormalEquations ne(P + 2);
+    for (int b = 0; b < B; ++b) ne.add_row_lower(innov.row(b).tail(P + 2).transpose(), innov(b, 0), 1.0 / S[b]);
+    ne.symmetrize();
+    std::vector<int> cols(static_cast<std::size_t>(P + 2));
+    for (int i = 0; i < P + 2; ++i) cols[static_cast<std::size_t>(i)] = i;
+    const double q0 = estimator::fit_subset(ne, std::vector<int>(cols.begin(), cols.begin() + P)).rss;
+    const double q1 = estimator::fit_subset(ne, cols).rss;
     excess = q0 - static_cast<double>(B - P);
     const double lr = q0 - q1;
     return std::isfinite(lr) && lr > 0 ? lr : 0.0;
@@ -1660,6 +1649,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
                       model::sensor_name(static_cast<Sensor>(ef.first)), model::effect_info(static_cast<Effect>(ef.second)).name,
                       axis_name(a), lr, 100.0 * lr / excess);
         R.warnings.push_back(buf);
+        R.form_withdrawn.push_back(std::string(model::sensor_name(static_cast<Sensor>(ef.first))) + "." +
+                                   model::effect_info(static_cast<Effect>(ef.second)).name);
         form_drop.push_back(ef);
         break;
       }
@@ -2208,12 +2199,11 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       const int ti = R.timing_iterations;
       R = diagnose_core(src, base, ow, shift);
       R.timing_iterations = ti;
-      for (int a = 0; a < kNumAxes; ++a)
-        if (R.wander[static_cast<std::size_t>(a)].adopted) {
-          R.wander[static_cast<std::size_t>(a)].ratio = seen[static_cast<std::size_t>(a)].ratio;
-          R.wander[static_cast<std::size_t>(a)].gain = seen[static_cast<std::size_t>(a)].gain;
-          R.wander[static_cast<std::size_t>(a)].max_abs_z = seen[static_cast<std::size_t>(a)].max_abs_z;
-          R.wander[static_cast<std::size_t>(a)].whiteness_p = seen[static_cast<std::size_t>(a)].whiteness_p;
+      // An adopted axis is not re-estimated: it keeps the estimate that adopted it.
+      for (std::size_t a = 0; a < static_cast<std::size_t>(kNumAxes); ++a)
+        if (R.wander[a].adopted) {
+          R.wander[a] = seen[a];
+          R.wander[a].adopted = true;
         }
       R.warnings.insert(R.warnings.end(), notes.begin(), notes.end());
     }

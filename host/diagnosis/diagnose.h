@@ -268,6 +268,9 @@ struct DiagnosisResult {
   };
   std::vector<Sensitivity> sensitivity;
   std::vector<Unexplained> unexplained;
+  // Effects withdrawn by the functional-form check ("gyro.g_sensitivity"): what they leave is a nonlinear
+  // function of their own signal (docs/diagnosis.md § 5).
+  std::vector<std::string> form_withdrawn;
   std::set<model::ParamId> final_ids;      // parameters of the final model (base + selected)
   std::array<double, 2> timing_shift_latency_s{}, timing_shift_ppm{};  // reference re-evaluated at this shift
   int timing_iterations = 0;

@@ -1,5 +1,6 @@
 #include "host/diagnosis/noise_model.h"
 #include "host/diagnosis/stats.h"
+#include "host/estimator/estimator.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -295,35 +296,28 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
   double max_abs_z = 0, whiteness_p = 1;
   auto m2ll = [&](const StochasticModel& mm, double rw0) {
     whiten_segment(mm, t_s, dur_s, rows, rw0, innov, S);
-    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(P, P);
-    Eigen::VectorXd g = Eigen::VectorXd::Zero(P);
-    double q = 0, logS = 0;
+    estimator::NormalEquations ne(P);
+    double logS = 0;
     for (int i = 0; i < n; ++i) {
-      const double w = 1.0 / S[i];
-      if (P > 0) {
-        const Eigen::VectorXd x = innov.row(i).tail(P).transpose();
-        H.selfadjointView<Eigen::Lower>().rankUpdate(x, w);
-        g += w * innov(i, 0) * x;
-      }
-      q += w * innov(i, 0) * innov(i, 0);
+      ne.add_row_lower(innov.row(i).tail(P).transpose(), innov(i, 0), 1.0 / S[i]);
       logS += std::log(S[i]);
     }
-    if (P == 0) return logS + q;
-    H = H.selfadjointView<Eigen::Lower>();
-    // Scaled LDLT; columns with no information (a pivot ~0) add nothing to either term.
-    const Eigen::VectorXd sc = H.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
-    const Eigen::MatrixXd Hs = sc.asDiagonal() * H * sc.asDiagonal();
-    Eigen::LDLT<Eigen::MatrixXd> ldlt(Hs);
-    const Eigen::VectorXd gs = sc.asDiagonal() * g;
+    ne.symmetrize();
+    // The columns' GLS fit on the shared estimator core; its kept columns' information is cov⁻¹.
+    std::vector<int> cols(static_cast<std::size_t>(P));
+    for (int i = 0; i < P; ++i) cols[static_cast<std::size_t>(i)] = i;
+    const estimator::SubsetFit f = estimator::fit_subset(ne, cols);
     double logdet = 0;
-    const Eigen::VectorXd d = ldlt.vectorD();
-    for (int i = 0; i < P; ++i)
-      if (d[i] > 1e-12) logdet += std::log(d[i]) - 2.0 * std::log(sc[i]);
-    const Eigen::VectorXd theta = sc.asDiagonal() * ldlt.solve(gs);
+    if (!f.kept.empty()) {
+      const Eigen::LLT<Eigen::MatrixXd> llt(f.cov);
+      for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) logdet -= 2.0 * std::log(llt.matrixL()(i, i));
+    }
     max_abs_z = 0;
     Eigen::VectorXd e(n);
     for (int i = 0; i < n; ++i) {
-      e[i] = (innov(i, 0) - innov.row(i).tail(P).dot(theta)) / std::sqrt(S[i]);
+      double fit_i = 0;
+      for (int k = 0; k < static_cast<int>(f.kept.size()); ++k) fit_i += innov(i, 1 + f.kept[static_cast<std::size_t>(k)]) * f.theta[k];
+      e[i] = (innov(i, 0) - fit_i) / std::sqrt(S[i]);
       max_abs_z = std::max(max_abs_z, std::fabs(e[i]));
     }
     const int L = std::min(10, n / 5);
@@ -340,7 +334,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
       Q *= static_cast<double>(n) * static_cast<double>(n + 2);
       whiteness_p = chi2_sf(Q, L);
     }
-    return logS + q - gs.dot(ldlt.solve(gs)) + logdet;
+    return logS + f.rss + logdet;
   };
   StochasticModel m0 = m;
   m0.bank_sigma = std::max(m.bank_sigma, m.bank_sigma_lik);  // the likelihood's own level

@@ -67,8 +67,8 @@ std::string outcome(const DiagnosisResult& r, const std::string& sensor, const s
   const std::string key = sensor + "." + effect;
   for (const auto& st : r.selected)
     if (st.sensor == sensor && st.effect == effect) return "selected";
-  for (const auto& w : r.warnings)
-    if (w.rfind(key + " withdrawn: what it leaves", 0) == 0) return "withdrawn: its form does not fit";
+  if (std::find(r.form_withdrawn.begin(), r.form_withdrawn.end(), key) != r.form_withdrawn.end())
+    return "withdrawn: its form does not fit";
   for (const auto& u : r.unexplained)
     if (std::find(u.withdrawn.begin(), u.withdrawn.end(), key) != u.withdrawn.end())
       return "withdrawn: leaves " + u.axis + " unexplained";

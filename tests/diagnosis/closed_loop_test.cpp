@@ -99,14 +99,9 @@ TEST(DiagnosisClosedLoop, EmittedModelSolvesToTheDiagnosedGap) {
       if (st["type"] != "sine") steps.push_back(st);
     ph["steps"] = steps;
   }
-  const Loop L = simulate_and_diagnose(dir, campaign, sensor, 7);
-  ASSERT_EQ(L.simulate_rc, 0);
-  ASSERT_EQ(L.diagnose_rc, 0);
-  const std::string& log = L.log;
-  const std::string& base = L.base;
-  const fs::path& ext = L.ext;
-  const json& d = L.d;
-  const std::set<std::string>& selected = L.selected;
+  const auto& [simulate_rc, diagnose_rc, log, base, ext, d, selected] = simulate_and_diagnose(dir, campaign, sensor, 7);
+  ASSERT_EQ(simulate_rc, 0);
+  ASSERT_EQ(diagnose_rc, 0);
   for (const char* e : {"gyro.g_sensitivity", "accel.scale_asymmetry", "gyro.timing"}) EXPECT_TRUE(selected.count(e)) << e;
 
   // The emitted model: base + selected, minus what the fixture solver cannot observe, which is named.
@@ -202,14 +197,9 @@ TEST(DiagnosisClosedLoop, LeftOutEffectsAreExactlyTheUnobservableOnes) {
     }
     ph["steps"] = steps;
   }
-  const Loop L = simulate_and_diagnose(dir, campaign, sensor, 11);
-  ASSERT_EQ(L.simulate_rc, 0);
-  ASSERT_EQ(L.diagnose_rc, 0);
-  const std::string& log = L.log;
-  const std::string& base = L.base;
-  const fs::path& ext = L.ext;
-  const json& d = L.d;
-  const std::set<std::string>& selected = L.selected;
+  const auto& [simulate_rc, diagnose_rc, log, base, ext, d, selected] = simulate_and_diagnose(dir, campaign, sensor, 11);
+  ASSERT_EQ(simulate_rc, 0);
+  ASSERT_EQ(diagnose_rc, 0);
   ASSERT_TRUE(selected.count("accel.size_effect")) << d["selected"].dump();
   const json m = read(ext);
   EXPECT_TRUE(m["effects"].contains("accel.size_effect")) << m.dump();

@@ -18,6 +18,16 @@ namespace diagnosis_diagnosis_unit_test {
 
 using namespace imuforge::diagnosis;
 
+// A hand-made sample with a reference, at 25 °C: the caller fills f, w and the outputs y.
+Sample referenced_sample(double t_s, int segment) {
+  Sample s;
+  s.t_s = t_s;
+  s.segment = segment;
+  s.temp_C = 25.0;
+  s.has_ref = true;
+  return s;
+}
+
 TEST(DiagnosisStats, ChiSquareSurvivalAgainstClosedForms) {
   // k = 2: sf = e^{-x/2}; k = 4: e^{-x/2}(1 + x/2); k = 1: erfc(√(x/2)).
   for (double x : {0.01, 0.5, 1.0, 3.0, 10.0, 40.0, 200.0}) {
@@ -262,11 +272,7 @@ TEST(DiagnosisPipeline, NominalInputPerAxis) {
     const double* f = faces[seg % 6];
     const double* w = rates[(seg / 6) % 4];
     for (int k = 0; k < 100; ++k, ++i) {
-      Sample s;
-      s.t_s = i / fs;
-      s.segment = seg;
-      s.temp_C = 25.0;
-      s.has_ref = true;
+      Sample s = referenced_sample(i / fs, seg);
       for (int j = 0; j < 3; ++j) {
         s.f[j] = f[j];
         s.w[j] = w[j];
@@ -356,11 +362,7 @@ TEST(DiagnosisPipeline, OutputFilterIsNotABiasInstability) {
   int i = 0;
   for (int seg = 0; seg < 6; ++seg)
     for (int k = 0; k < 20000; ++k, ++i) {
-      Sample s;
-      s.t_s = i / fs;
-      s.segment = seg;
-      s.temp_C = 25.0;
-      s.has_ref = true;
+      Sample s = referenced_sample(i / fs, seg);
       s.f[seg % 3] = (seg / 3) ? -g : g;
       drift = phi * drift + drift_sigma * std::sqrt(1.0 - phi * phi) * n01(rng);
       for (int a = 0; a < 6; ++a) {
@@ -487,11 +489,7 @@ TEST(DiagnosisPipeline, ClockErrorOfSeveralSamplesAtInstantaneousSteps) {
   std::vector<Sample> log;
   const int n = static_cast<int>(n_seg * seg_s * fs);
   for (int i = 0; i < n; ++i) {
-    Sample s;
-    s.t_s = i / fs;
-    s.segment = static_cast<int>(std::floor(s.t_s / seg_s));
-    s.temp_C = 25.0;
-    s.has_ref = true;
+    Sample s = referenced_sample(i / fs, static_cast<int>(std::floor(i / fs / seg_s)));
     ref(s.t_s, s.f, s.w);
     for (int si = 0; si < 2; ++si) {
       double f[3], w[3];
@@ -537,11 +535,7 @@ TEST(DiagnosisPipeline, CubicGSensitivityIsNotReadAsLinear) {
     for (int pass = 0; pass < 2; ++pass)
       for (const auto& f : poses) {
         for (int i = 0; i < static_cast<int>(dwell_s * fs); ++i) {
-          Sample s;
-          s.t_s = static_cast<double>(log.size()) / fs;
-          s.segment = seg;
-          s.temp_C = 25.0;
-          s.has_ref = true;
+          Sample s = referenced_sample(static_cast<double>(log.size()) / fs, seg);
           for (int j = 0; j < 3; ++j) s.f[j] = f[static_cast<std::size_t>(j)], s.w[j] = 0.0;
           const double fy = f[1] / g;
           const double bias_y = amp_rad_s * (cubic ? fy * fy * fy : fy);
