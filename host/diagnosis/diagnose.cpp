@@ -69,6 +69,7 @@ struct Pass0 {
   double bin_s = 0.1;
   std::vector<double> Tbin;  // NaN where no temperature
   std::vector<double> Tdot;  // °C/s per bin
+  std::array<double, kNumAxes> out_step{};  // output step of a quantised axis (0: continuous), noise_model.h
   double tdot_at(double t) const {
     if (Tdot.empty()) return 0.0;
     // Clamp in floating point: converting an out-of-range double to an integer is undefined.
@@ -86,6 +87,10 @@ Pass0 run_pass0(SampleSource& src, const Options& opt) {
   std::vector<double> sum, cnt;
   bool first = true;
   double prev_t = 0;
+  // Output steps: the first kStepDiffs sample-to-sample differences per axis are plenty to see a lattice.
+  const std::size_t kStepDiffs = 400000;
+  std::array<std::vector<double>, kNumAxes> diffs;
+  std::array<double, kNumAxes> y_prev{}, y_max{};
   while (src.next(s)) {
     if (!std::isfinite(s.t_s)) throw DiagnosisError("sample " + std::to_string(p.n) + ": time is not finite");
     if (first) {
@@ -96,6 +101,12 @@ Pass0 run_pass0(SampleSource& src, const Options& opt) {
                            " s after " + std::to_string(prev_t) + " s)");
     }
     prev_t = s.t_s;
+    for (int a = 0; a < kNumAxes; ++a) {
+      const auto ua = static_cast<std::size_t>(a);
+      if (p.n > 0 && diffs[ua].size() < kStepDiffs) diffs[ua].push_back(std::fabs(s.y[a] - y_prev[ua]));
+      y_prev[ua] = s.y[a];
+      if (std::isfinite(s.y[a])) y_max[ua] = std::max(y_max[ua], std::fabs(s.y[a]));
+    }
     ++p.n;
     if (s.has_ref) ++p.n_ref;
     if (std::isfinite(s.temp_C)) {
@@ -115,6 +126,9 @@ Pass0 run_pass0(SampleSource& src, const Options& opt) {
   const double dur = p.t_last - p.t_first;
   if (!(dur > 0)) throw DiagnosisError("log has zero duration");
   p.fs = static_cast<double>(p.n - 1) / dur;
+  // Below 4e-7 of the largest value a difference is float resolution (f32 logs), not a step.
+  for (int a = 0; a < kNumAxes; ++a)
+    p.out_step[static_cast<std::size_t>(a)] = output_step(std::move(diffs[static_cast<std::size_t>(a)]), 4e-7 * y_max[static_cast<std::size_t>(a)]);
   if (!sum.empty()) {
     p.Tbin.assign(sum.size(), kNaN);
     for (std::size_t i = 0; i < sum.size(); ++i)
@@ -906,6 +920,15 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       std::fprintf(stderr, "noise %s: N=%.3g Q=%.3g gm=%.3g/%.3gs flickerB=%.3g (upper %.3g) K=%.3g (%d pts)\n", axis_name(a), m.N, m.Q, m.gm_sigma,
                    m.gm_tau_s, m.flicker_B, m.flicker_B_upper, m.K, m.n_points);
     R.rw_prior_var[ua] = m.K * m.K * D_log / 6.0;  // a random walk's offset from its mean over the log
+    // A quantised output: the noise ahead of the quantiser (from the output's white level) sets how much
+    // rounding bias each static mean keeps (noise_model.h, output_step).
+    const double step = p0.out_step[ua];
+    if (step > 0) {
+      R.quant[ua].step = step;
+      R.quant[ua].noise_sigma = quantizer_input_sigma(step, m.N * m.N * p0.fs);
+      R.quant[ua].mean_bias_var = quantization_mean_bias_var(step, R.quant[ua].noise_sigma);
+      R.stoch[ua].seg_bias_var = verdict_stoch[ua].seg_bias_var = R.quant[ua].mean_bias_var;
+    }
   }
   for (auto& b : blocks) {
     const double tau = static_cast<double>(b.n) / p0.fs;
@@ -974,6 +997,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   const int B = static_cast<int>(blocks.size());
   // Mid time and length of every block (time order): what each GLS whitening run of the block means takes.
   std::vector<double> blk_t(static_cast<std::size_t>(B)), blk_dur(static_cast<std::size_t>(B));
+  std::vector<int> blk_seg(static_cast<std::size_t>(B));  // segment of each block: where a per-segment bias restarts
+  for (int b = 0; b < B; ++b) blk_seg[static_cast<std::size_t>(b)] = blocks[static_cast<std::size_t>(b)].unit;
   for (int b = 0; b < B; ++b) {
     blk_t[static_cast<std::size_t>(b)] = blocks[static_cast<std::size_t>(b)].t;
     blk_dur[static_cast<std::size_t>(b)] = static_cast<double>(blocks[static_cast<std::size_t>(b)].n) / p0.fs;
@@ -1011,7 +1036,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       const std::vector<double>& du = blk_dur;
       const double rw0 = R.rw_prior_var[static_cast<std::size_t>(a)];
       auto sums = [&](const std::vector<char>* missing, Eigen::MatrixXd& H, Eigen::VectorXd& g, double& q) {
-        whiten_segment(sm, tm, du, rows, rw0, innov, S, missing);
+        whiten_segment(sm, tm, du, rows, rw0, innov, S, missing, &blk_seg);
         H = Eigen::MatrixXd::Zero(P, P);
         g = Eigen::VectorXd::Zero(P);
         q = 0;
@@ -1273,15 +1298,28 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       s2_axis[static_cast<std::size_t>(a)] = std::max(1.0, std::min(s2_in, s2_ho));
       lr += (fc.rss - fa.rss) / s2_axis[static_cast<std::size_t>(a)];
       // The plain drop of the held-out χ² (noise variance only): a fold fit that extrapolates poorly raises
-      // it, so an effect the campaign cannot pin down never earns a gain.
+      // it, so an effect the campaign cannot pin down never earns a gain. An axis the augmented model leaves
+      // unexplained (held-out χ²/dof above unexplained_chi2_dof) counts in units of that misfit: summed raw,
+      // one axis far above its noise (an out-of-catalog bias at χ²/dof 10³) outweighs the sensor's other axes,
+      // and a real effect whose fold fits mispredict that axis by a few per cent of its excess lost a gain of
+      // hundreds of noise variances on the axes it explains. An axis the effect brings below the threshold
+      // keeps its whole gain; so does one a little above its noise (1.5–2 from transients at the steps of a
+      // short log), where dividing lost a true misalign_temp (smoke random-104: gain 33 for 36 needed).
+      double s2_g = 1.0;
+      double gain_a = 0, exc_a = 0;
       if (o.whiten_heldout) {
         const auto wa = heldout_white(a, sel), wc = heldout_white(a, sel0);
-        ho_gain += wc.first - wa.first;
-        excess_cur += pos(wc.first - wc.second);
+        gain_a = wc.first - wa.first;
+        exc_a = pos(wc.first - wc.second);
+        s2_g = wa.second > 0 ? wa.first / wa.second : 1.0;
       } else {
-        ho_gain += hc.chi2 - ha.chi2;
-        excess_cur += pos(hc.chi2 - hc.nb);
+        gain_a = hc.chi2 - ha.chi2;
+        exc_a = pos(hc.chi2 - hc.nb);
+        s2_g = ha.nb > 0 ? ha.chi2 / ha.nb : 1.0;
       }
+      if (!o.heldout_axis_scale || !(s2_g > o.unexplained_chi2_dof)) s2_g = 1.0;
+      ho_gain += gain_a / s2_g;
+      excess_cur += exc_a / s2_g;
       for (int i = 0; i < static_cast<int>(fa.kept.size()); ++i) {
         const ParamId id = ad.cols[static_cast<std::size_t>(fa.kept[static_cast<std::size_t>(i)])];
         if (cur.count(id) || std::find(eids.begin(), eids.end(), id) == eids.end()) continue;
@@ -1354,7 +1392,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         e_neg += x < 0 ? x * x : 0.0;
       }
       if (!(e_pos > 0) || !(e_neg > 0)) continue;
-      whiten_segment(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S);
+      whiten_segment(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S, nullptr, &blk_seg);
       Eigen::MatrixXd H = Eigen::MatrixXd::Zero(P + 2, P + 2);
       Eigen::VectorXd g = Eigen::VectorXd::Zero(P + 2);
       for (int b = 0; b < B; ++b) {
@@ -1612,7 +1650,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     Eigen::VectorXd S(B);
     rows.col(P + 1) = c.array().square().matrix();
     rows.col(P + 2) = c.array().cube().matrix();
-    whiten_segment(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S);
+    whiten_segment(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S, nullptr, &blk_seg);
     // GLS fits with and without the two columns, on the shared estimator core (its priority Cholesky drops
     // an augmentation column the model's columns already span: it then explains nothing new).
     estimator::NormalEquations ne(P + 2);
@@ -1665,6 +1703,67 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       remove_effect(cur, cur_effects, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
     }
 
+  }
+  // Output step (noise_model.h, output_step): on an axis rounded to a step the noise does not dither, the
+  // rounding leaves each mean a bias that is a function of the input (a staircase of period one step). A
+  // campaign that repeats its poses and rates at several temperatures repeats that function, so a catalog
+  // effect of the same inputs can fit part of it (blind stochastic cases: misalign_temp at LR 64 and
+  // scale_nonlinearity k3 at LR 36, each on its quantised axis alone). The segment bias in the noise model
+  // takes it as independent per segment, which repeated inputs are not. An effect is withdrawn when its fitted
+  // signal on a quantised axis is within twice the staircase's σ there and the sensor's other axes do not
+  // show it on their own (GLS LR at the selection's Bonferroni level): it cannot be told from the rounding.
+  {
+    std::vector<std::pair<int, int>> step_drop;
+    for (const auto& ef : cur_effects) {
+      if (fixed_effects.count(ef)) continue;
+      const Sensor s = static_cast<Sensor>(ef.first);
+      const Effect e = static_cast<Effect>(ef.second);
+      std::set<ParamId> without = cur;
+      std::set<std::pair<int, int>> ew = cur_effects;
+      remove_effect(without, ew, s, e);
+      double lr_rest = 0, rms_in = 0, sb_in = 0;
+      int dof_rest = 0, a_in = -1;
+      for (int a = 3 * ef.first; a < 3 * ef.first + 3; ++a) {
+        const auto ua = static_cast<std::size_t>(a);
+        const AxisData& ad = ax[ua];
+        const Fit f_with = fit_axis(ad, cols_for(ad, cur), -1), f_without = fit_axis(ad, cols_for(ad, without), -1);
+        Eigen::VectorXd c = Eigen::VectorXd::Zero(B);
+        for (int i = 0; i < static_cast<int>(f_with.kept.size()); ++i) {
+          const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f_with.kept[static_cast<std::size_t>(i)])]);
+          if (pi.sensor == s && pi.effect == e) c += ad.Xr.col(f_with.kept[static_cast<std::size_t>(i)]) * f_with.theta[i];
+        }
+        const double rms = B > 0 ? std::sqrt(c.squaredNorm() / B) : 0.0;
+        const auto& q = R.quant[ua];
+        const double sb = std::sqrt(q.mean_bias_var);
+        if (q.step > 0 && q.noise_sigma < 0.6 * q.step && rms < 2.0 * sb) {
+          a_in = a;
+          rms_in = rms;
+          sb_in = sb;
+        } else {
+          lr_rest += std::max(f_without.rss - f_with.rss, 0.0);
+          dof_rest += static_cast<int>(f_with.kept.size()) - static_cast<int>(f_without.kept.size());
+        }
+      }
+      if (a_in < 0) continue;
+      if (dof_rest > 0 && chi2_sf(lr_rest, dof_rest) < o.alpha / std::max<std::size_t>(1, candidates.size())) continue;
+      char buf[360];
+      std::snprintf(buf, sizeof buf,
+                    "%s.%s withdrawn: on %s its signal (rms %.2g) is within the rounding staircase of the output step "
+                    "(sigma %.2g) and the sensor's other axes do not show it: it cannot be told from the rounding",
+                    model::sensor_name(s), model::effect_info(e).name, axis_name(a_in), rms_in, sb_in);
+      R.warnings.push_back(buf);
+      R.step_withdrawn.push_back(std::string(model::sensor_name(s)) + "." + model::effect_info(e).name);
+      step_drop.push_back(ef);
+    }
+    for (const auto& ef : step_drop) {
+      const std::string sn = model::sensor_name(static_cast<Sensor>(ef.first));
+      const std::string en = model::effect_info(static_cast<Effect>(ef.second)).name;
+      withdrawn[static_cast<std::size_t>(ef.first)].push_back(sn + "." + en);
+      R.selected.erase(std::remove_if(R.selected.begin(), R.selected.end(),
+                                      [&](const Step& st) { return st.sensor == sn && st.effect == en; }),
+                       R.selected.end());
+      remove_effect(cur, cur_effects, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
+    }
   }
   const Gap sel_gap = gap_of(cur);
   for (int si = 0; si < 2; ++si) {
@@ -1760,14 +1859,21 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       const auto& ad = ax[ua];
       const Fit f = fit_axis(ad, cols_for(ad, cur), -1);
       const std::array<WholeLogWander, 2> lines =
-          whole_log_wander(R.stoch[ua], blk_t, blk_dur, design_rows(ad, f.kept, 0), R.rw_prior_var[ua], R.duration_s, 4.0 * o.wander_max_factor);
+          whole_log_wander(R.stoch[ua], blk_t, blk_dur, design_rows(ad, f.kept, 0), R.rw_prior_var[ua], R.duration_s, std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg);
       // Why a line's maximiser is not wander: too large, a jump, or correlated innovations (a periodic bias).
+      const bool rw_likelier = lines[1].kind != WholeLogWander::kNone && (lines[0].kind == WholeLogWander::kNone || lines[1].gain >= lines[0].gain);
       auto reason = [&](const WholeLogWander& l) {
-        return l.ratio > o.wander_max_factor ? "too_large"
+        const double limit = l.kind == WholeLogWander::kRandomWalk && rw_likelier ? o.wander_rw_max_factor : o.wander_max_factor;
+        return l.ratio > limit ? "too_large"
                : l.max_abs_z > o.wander_max_z ? "jump"
                : l.whiteness_p < o.wander_min_whiteness_p ? "periodic"
                                                           : "";
       };
+      if (std::getenv("IMUFORGE_DIAG_TRACE"))
+        for (const auto& l : lines)
+          std::fprintf(stderr, "wander %s %s: ratio %.2f gain %.1f max|z| %.2f LB p %.2g\n", axis_name(a),
+                       l.kind == WholeLogWander::kFlicker ? "flicker" : l.kind == WholeLogWander::kRandomWalk ? "rw" : "none", l.ratio,
+                       l.gain, l.max_abs_z, l.whiteness_p);
       // The likelier line, unless it fails a check and the other passes them (flicker and random walk differ
       // in shape beyond a quarter of the log, where the likelihood tells them apart least).
       const WholeLogWander* pick = nullptr;

@@ -86,6 +86,11 @@ struct Options {
   // Off by default: measured on the 112 blind cases it removes no false pick the flicker upper limit leaves,
   // adds one (stoch-consumer-0) and loses slow true effects (docs/diagnosis.md, "Thermal false picks").
   bool whiten_heldout = false;
+  // A candidate's held-out gain and the excess it shrinks are summed over its axes with each axis that the
+  // augmented model leaves unexplained (held-out χ²/dof > unexplained_chi2_dof) in units of that misfit, so one
+  // axis far above its noise does not outweigh the others (docs/diagnosis.md § 5). Off: raw χ² sums (before
+  // stop 24).
+  bool heldout_axis_scale = true;
   // A determined magnitude (> 3σ) outside the plausible range (plausible_limit) disqualifies a candidate.
   bool check_plausibility = true;
   // An axis whose held-out χ²/dof (withheld segments) stays above this after selection is "unexplained".
@@ -125,6 +130,12 @@ struct Options {
   bool whole_log_wander = true;     // estimate it and adopt it (off: the static dwells' level only)
   double wander_max_factor = 4.0;   // a whole-log wander above this × the dwells' is not wander: a deterministic
                                     // residual (out-of-catalog) that must stay visible as such
+  // The random-walk line's limit when it is the likelier of the two lines. The dwells see a random walk least
+  // of all (minutes long, and each settling soak has the die temperature regressed out, which takes a random
+  // walk's slow part with it), so their K is a floor, not a level: on the blind stochastic cases a true random
+  // walk needed 3.4–12.8× it. Out-of-catalog residuals under that line fail the jump or whiteness check
+  // (largest standardised innovation ≥ 8 on all 31 such axes measured, or Ljung–Box p ≤ 1e-11).
+  double wander_rw_max_factor = 14.0;
   double wander_max_z = 6.0;        // nor is one whose largest standardised innovation exceeds this (a jump)
   double wander_min_whiteness_p = 1e-6;  // nor one that leaves its innovations correlated (a periodic bias)
   // Optional Allan curve of a simulation of the same campaign (from --sim), per axis.
@@ -225,6 +236,12 @@ struct DiagnosisResult {
   std::array<NoiseFit, kNumAxes> noise;          // IEEE 952 terms of the Allan curve (report)
   std::array<StochasticModel, kNumAxes> stoch;   // the model carried into the likelihood (noise_model.h)
   std::array<double, kNumAxes> rw_prior_var{};   // random-walk bias variance at a segment start
+  // A quantised output (noise_model.h, output_step): its step, the noise ahead of the quantiser, and the variance
+  // of the rounding bias each segment mean keeps (carried in the segment-mean variances). step 0: continuous.
+  struct Quantization {
+    double step = 0, noise_sigma = 0, mean_bias_var = 0;
+  };
+  std::array<Quantization, kNumAxes> quant{};
   // Whole-log wander of the final model (REML over the block means, noise_model.h) against the static dwells'
   // likelihood level; adopted = carried into this result's likelihood and held-out variances.
   struct Wander {
@@ -271,6 +288,9 @@ struct DiagnosisResult {
   // Effects withdrawn by the functional-form check ("gyro.g_sensitivity"): what they leave is a nonlinear
   // function of their own signal (docs/diagnosis.md § 5).
   std::vector<std::string> form_withdrawn;
+  // Effects withdrawn because their signal on a coarsely quantised axis is within the output's rounding
+  // staircase and no other axis shows them (docs/diagnosis.md § 2, "Output step").
+  std::vector<std::string> step_withdrawn;
   std::set<model::ParamId> final_ids;      // parameters of the final model (base + selected)
   std::array<double, 2> timing_shift_latency_s{}, timing_shift_ppm{};  // reference re-evaluated at this shift
   int timing_iterations = 0;

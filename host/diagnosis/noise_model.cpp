@@ -218,6 +218,54 @@ StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>&
   return best;
 }
 
+double output_step(std::vector<double> abs_diffs, double tiny) {
+  const std::size_t n_all = abs_diffs.size();
+  std::vector<double> nz;
+  for (double d : abs_diffs)
+    if (std::isfinite(d) && d > tiny) nz.push_back(d);
+  if (nz.size() < 100) return 0.0;
+  std::sort(nz.begin(), nz.end());
+  // The smallest cluster (differences of one step, each off by at most a finer LSB): its median.
+  std::size_t k = 0;
+  while (k < nz.size() && nz[k] < 1.5 * nz.front()) ++k;
+  const double step = nz[k / 2];
+  if (!(step > tiny)) return 0.0;
+  std::size_t on = n_all - nz.size();  // zero differences sit on the lattice
+  for (double d : nz) {
+    const double r = d / step;
+    on += std::fabs(r - std::round(r)) <= 0.15 ? 1 : 0;
+  }
+  return static_cast<double>(on) >= 0.95 * static_cast<double>(n_all) ? step : 0.0;
+}
+
+double quantization_mean_bias_var(double step, double sigma) {
+  if (!(step > 0)) return 0.0;
+  const double r2 = (sigma / step) * (sigma / step);
+  double v = 0, e = 1;
+  const int kMax = 64;
+  for (int k = 1; k <= kMax; ++k) {
+    e = std::exp(-4.0 * M_PI * M_PI * k * k * r2);
+    v += step * step / (2.0 * M_PI * M_PI * k * k) * e;
+    if (e < 1e-18) return v;
+  }
+  // The tail Σ_{k>K} 1/k² ≈ 1/(K + ½) (exact to O(K⁻³) at σ = 0; the factor e bounds it otherwise).
+  return v + step * step / (2.0 * M_PI * M_PI) * e / (kMax + 0.5);
+}
+
+double quantizer_input_sigma(double step, double out_var) {
+  if (!(step > 0) || !(out_var > 0)) return 0.0;
+  // Within a static stretch the output's variance is σ² + Δ²/12 − b(x)²; over poses (x uniform in a step) it is
+  // σ² + Δ²/12 − quantization_mean_bias_var(Δ, σ), which rises from 0 at σ = 0. Bisection on σ.
+  auto f = [&](double sg) { return sg * sg + step * step / 12.0 - quantization_mean_bias_var(step, sg); };
+  double lo = 0, hi = std::sqrt(out_var) + step;
+  if (f(hi) < out_var) return hi;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (f(mid) < out_var ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 namespace {
 // A block mean over d of a Gauss-Markov process of correlation time T, against its value g at mid-block:
 // mean = alpha·g + e, Var(mean) = vm·σ² (both → 1 for d ≪ T), so the part not carried by the state is
@@ -235,12 +283,13 @@ void gm_block(double d, double T, double& alpha, double& vm) {
 
 void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                     const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, Eigen::Ref<Eigen::MatrixXd> innov,
-                    Eigen::Ref<Eigen::VectorXd> S, const std::vector<char>* missing) {
+                    Eigen::Ref<Eigen::VectorXd> S, const std::vector<char>* missing, const std::vector<int>* seg_of) {
   const int n = static_cast<int>(rows.rows()), c = static_cast<int>(rows.cols());
-  // State [GM biases (single GM, flicker bank)..., RW bias]; one mean column per data column (the filter is
-  // linear in the data).
+  // State [GM biases (single GM, flicker bank)..., RW bias, segment bias (when m.seg_bias_var > 0)]; one mean
+  // column per data column (the filter is linear in the data).
   const std::vector<std::pair<double, double>> gm = m.gm_states();
-  const int G = static_cast<int>(gm.size()), NS = G + 1;
+  const bool seg_bias = m.seg_bias_var > 0;
+  const int G = static_cast<int>(gm.size()), NS = G + 1 + (seg_bias ? 1 : 0), Qs = G + 1;
   Eigen::MatrixXd P = Eigen::MatrixXd::Zero(NS, NS);
   for (int g = 0; g < G; ++g) P(g, g) = gm[static_cast<std::size_t>(g)].first;
   P(G, G) = std::max(rw_prior_var, 0.0);
@@ -251,10 +300,18 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
       const double dt = std::max(t_s[static_cast<std::size_t>(i)] - t_s[static_cast<std::size_t>(i - 1)], 0.0);
       for (int g = 0; g < G; ++g) phi[g] = std::exp(-dt / gm[static_cast<std::size_t>(g)].second);
       phi[G] = 1.0;
+      if (seg_bias) phi[Qs] = 1.0;
       M = phi.asDiagonal() * M;
       P = phi.asDiagonal() * P * phi.asDiagonal();
       for (int g = 0; g < G; ++g) P(g, g) += gm[static_cast<std::size_t>(g)].first * (1.0 - phi[g] * phi[g]);
       P(G, G) += m.K * m.K * dt;
+    }
+    // A new segment draws a new, independent segment bias (forgets the last one).
+    if (seg_bias && (i == 0 || !seg_of || (*seg_of)[static_cast<std::size_t>(i)] != (*seg_of)[static_cast<std::size_t>(i - 1)])) {
+      M.row(Qs).setZero();
+      P.row(Qs).setZero();
+      P.col(Qs).setZero();
+      P(Qs, Qs) = m.seg_bias_var;
     }
     if (missing && (*missing)[static_cast<std::size_t>(i)]) {
       innov.row(i).setZero();
@@ -270,6 +327,7 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
       R += gm[static_cast<std::size_t>(g)].first * std::max(vm - alpha * alpha, 0.0);
     }
     h[G] = 1.0;
+    if (seg_bias) h[Qs] = 1.0;
     R = std::max(R, 1e-300);
     const Eigen::VectorXd Ph = P * h;
     const double Si = h.dot(Ph) + R;
@@ -286,7 +344,8 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
 
 std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
-                                               double rw_prior_var, double duration_s, double ratio_max) {
+                                               double rw_prior_var, double duration_s, double ratio_max,
+                                               const std::vector<int>* seg_of) {
   std::array<WholeLogWander, 2> out;
   const int n = static_cast<int>(rows.rows()), c = static_cast<int>(rows.cols()), P = c - 1;
   if (n <= P + 2 || !(duration_s > 0)) return out;
@@ -295,7 +354,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
   // −2 log L_REML: Σ log S + χ² of the GLS fit + log det of the columns' information.
   double max_abs_z = 0, whiteness_p = 1;
   auto m2ll = [&](const StochasticModel& mm, double rw0) {
-    whiten_segment(mm, t_s, dur_s, rows, rw0, innov, S);
+    whiten_segment(mm, t_s, dur_s, rows, rw0, innov, S, nullptr, seg_of);
     estimator::NormalEquations ne(P);
     double logS = 0;
     for (int i = 0; i < n; ++i) {
@@ -417,7 +476,7 @@ double block_covariance(const StochasticModel& m, double ti, double di, double t
     gm_block(std::max(dj, 1e-9), T, aj, vj);
     c += s2 * (same ? vi : ai * aj * std::exp(-std::fabs(ti - tj) / T));
   }
-  c += rw_prior_var + m.K * m.K * std::max(0.0, std::min(ti, tj) - t_start);
+  c += rw_prior_var + m.K * m.K * std::max(0.0, std::min(ti, tj) - t_start) + m.seg_bias_var;
   if (same) c += m.white_var(std::max(std::min(di, dj), 1e-9));
   return c;
 }

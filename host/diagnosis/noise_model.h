@@ -39,6 +39,9 @@ struct StochasticModel {
   // (bank_sigma, flicker_B) is what is reported.
   double bank_sigma_lik = 0;
   double flicker_B_upper = 0;         // B of bank_sigma_lik, unit
+  // Variance of a bias that is constant within a segment and independent between segments: the rounding
+  // bias of a quantised output's static means (quantization_mean_bias_var). Not part of the Allan fit.
+  double seg_bias_var = 0;
   double chi2 = 0;     // Allan-fit χ² (Σ edf/2 (AVAR − fit)²/fit²)
   int n_points = 0;
   // Allan variance of the model at cluster time tau_s.
@@ -99,7 +102,30 @@ struct WholeLogWander {
 };
 std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
-                                               double rw_prior_var, double duration_s, double ratio_max);
+                                               double rw_prior_var, double duration_s, double ratio_max,
+                                               const std::vector<int>* seg_of = nullptr);
+
+// Rounding quantiser of an output (docs/diagnosis.md § 2, "output step"). A quantiser whose step Δ is not
+// small against the noise ahead of it (σ below about 0.6 Δ) leaves a bias in the mean of a constant input x that
+// depends on where x falls between two steps: Σ_k (−1)^k (Δ/πk) e^{−2π²k²σ²/Δ²} sin(2πkx/Δ). Over the poses of a
+// campaign x mod Δ is as good as uniform, so each static mean carries an independent rounding bias of variance
+// quantization_mean_bias_var; white noise alone would say none. IEEE 952's Q term (3Q²/τ² of an integrated
+// output) does not describe it: the rounding of a rate output is white to the Allan curve.
+//
+// Step Δ of an output from its sample-to-sample differences: the values lie on a lattice when (nearly) every
+// difference is a whole number of the smallest non-zero one (within 15 %, so a coarse step re-rounded to a
+// finer LSB still counts). Returns 0 when they do not (continuous values, or fewer than 100 non-zero steps).
+// abs_diffs: |y_i − y_{i−1}|; tiny: what counts as zero (float resolution of the values). O(n log n).
+double output_step(std::vector<double> abs_diffs, double tiny);
+// Variance, over a uniform position of the input within a step, of the mean rounding error of a constant
+// input read through a rounding quantiser of step `step` after Gaussian noise `sigma`:
+// Σ_k Δ²/(2π²k²) e^{−4π²k²σ²/Δ²} (Δ²/12 at σ = 0; below 1e-15 Δ² from σ ≈ 0.95 Δ on). O(1).
+double quantization_mean_bias_var(double step, double sigma);
+// The noise σ ahead of a quantiser of step `step` from the variance of its output within static stretches
+// (out_var, the white level the Allan curve shows: N²·fs): solves σ² + Δ²/12 − quantization_mean_bias_var = out_var.
+// Sheppard's σ² = out_var − Δ²/12 holds only from σ ≈ 0.5 Δ on; below, rounding hides part of the noise.
+// O(60 · 64).
+double quantizer_input_sigma(double step, double out_var);
 
 // GLS whitening of one segment's block means by a Kalman filter over the bias states (GM, RW).
 // Blocks in time order: mid time t_s, duration dur_s, observation row [z | x] (1 + P columns).
@@ -108,10 +134,13 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
 // rw_prior_var: variance of the random-walk bias at the segment start (it is not known from outside).
 // missing (optional, one flag per block): blocks treated as not observed (the state is only propagated
 // across them; their innovation row is 0 and S = 1), so that a training set's GLS leaves them out exactly.
+// seg_of (optional, one segment id per block): where m.seg_bias_var restarts (a new id); without it every block
+// is its own segment.
 // O(n · P).
 void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                     const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, Eigen::Ref<Eigen::MatrixXd> innov,
-                    Eigen::Ref<Eigen::VectorXd> S, const std::vector<char>* missing = nullptr);
+                    Eigen::Ref<Eigen::VectorXd> S, const std::vector<char>* missing = nullptr,
+                    const std::vector<int>* seg_of = nullptr);
 
 // Covariance of two block means of one segment under the model (mid times ti, tj, durations di, dj);
 // i == j includes the white part. Used for the variance of a segment mean.

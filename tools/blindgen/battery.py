@@ -13,6 +13,7 @@ Scoring (against model-thermal unless the case says otherwise):
   false     = selected effects that are not present (stochastic findings in `selected` are not counted)
   ooc pass  = nothing selected and every affected axis is named in `unexplained`
   null pass = nothing selected and `unexplained` empty (absent key = nothing flagged)
+  stochastic at_noise = the same for a stochastic-only case (colored noise, random walk, a coarse output step)
   single    = top-1 of the deterministic ranking is the injected effect; magnitude: every injected
               component within 3 sigma of the truth (final joint fit if selected, else the ranking's fit)
 """
@@ -219,6 +220,8 @@ def score(truth, d):
     if kind in ('null', 'stochastic', 'ooc_noise'):
         r['nothing_selected'] = not sel
         r['pass'] = (not sel) and (not une) if kind == 'null' else (not sel)
+        # colored noise is noise: an axis named "unexplained" is as wrong as a selected effect
+        r['at_noise'] = (not sel) and (not une)
     return r
 
 
@@ -321,6 +324,8 @@ def summarise(rows):
         S['stochastic.n'] = len(st)
         S['stochastic.nothing_selected'] = frac([r['nothing_selected'] for r in st])
         S['stochastic.nothing_selected_lcb95'] = pass_lcb95(sum(1 for r in st if r['nothing_selected']), len(st))
+        S['stochastic.at_noise'] = frac([r['at_noise'] for r in st])
+        S['stochastic.at_noise_lcb95'] = pass_lcb95(sum(1 for r in st if r['at_noise']), len(st))
     on = [r for r in by.get('ooc_noise', []) if 'error' not in r]
     if on:
         S['ooc_noise.nothing_selected'] = frac([r['nothing_selected'] for r in on])
