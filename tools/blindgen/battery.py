@@ -69,6 +69,15 @@ def suite(name):
         cases.append(('ooc-g_cubed-402', 'ooc', 402, {'size': 'short', 'ooc': 'g_cubed', 'cls': 'automotive'}))
         cases.append(('example-automotive', 'example', 3, {'size': 'short', 'sensor': 'docs/examples/sensor-automotive.json'}))
         return cases
+    if name == 'holdout':
+        # cases no diagnosis change was tuned on (added at stop 24, after its changes were fixed): stochastic-only
+        # and mixed cases at seeds outside the full suite's, to check that its figures carry over
+        for i, cls in enumerate(blindgen.CLASSES * 8):
+            cases.append(('stoch-%s-%d' % (cls, i), 'stochastic', 7000 + i, {'cls': cls}))
+        for k, kind in enumerate(blindgen.OOC_KINDS):
+            for i in range(2):
+                cases.append(('mixed-%s-%d' % (kind, i), 'mixed', 8000 + 10 * k + i, {'ooc': kind}))
+        return cases
     if name != 'full':
         raise SystemExit('unknown suite ' + name)
     for s in range(1, 51):
@@ -434,7 +443,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
