@@ -896,6 +896,13 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       m.N = std::max(m.N, std::sqrt(wvar / p0.fs));
     }
     m.N = std::max(m.N, 1e-300);
+    // A quantised output: the noise ahead of the quantiser (from the output's white level) sets how much
+    // rounding bias each static mean keeps (noise_model.h, output_step).
+    if (p0.out_step[ua] > 0) {
+      R.quant[ua].step = p0.out_step[ua];
+      R.quant[ua].noise_sigma = quantizer_input_sigma(R.quant[ua].step, m.N * m.N * p0.fs);
+      m.seg_bias_var = quantization_mean_bias_var(R.quant[ua].step, R.quant[ua].noise_sigma);
+    }
     // The held-out verdict's noise: the whole log's wander where diagnose() found the dwells' too low (point
     // and likelihood level alike); the selection's likelihood keeps the dwells' (R.stoch).
     StochasticModel mv = m;
@@ -920,15 +927,6 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       std::fprintf(stderr, "noise %s: N=%.3g Q=%.3g gm=%.3g/%.3gs flickerB=%.3g (upper %.3g) K=%.3g (%d pts)\n", axis_name(a), m.N, m.Q, m.gm_sigma,
                    m.gm_tau_s, m.flicker_B, m.flicker_B_upper, m.K, m.n_points);
     R.rw_prior_var[ua] = m.K * m.K * D_log / 6.0;  // a random walk's offset from its mean over the log
-    // A quantised output: the noise ahead of the quantiser (from the output's white level) sets how much
-    // rounding bias each static mean keeps (noise_model.h, output_step).
-    const double step = p0.out_step[ua];
-    if (step > 0) {
-      R.quant[ua].step = step;
-      R.quant[ua].noise_sigma = quantizer_input_sigma(step, m.N * m.N * p0.fs);
-      R.quant[ua].mean_bias_var = quantization_mean_bias_var(step, R.quant[ua].noise_sigma);
-      R.stoch[ua].seg_bias_var = verdict_stoch[ua].seg_bias_var = R.quant[ua].mean_bias_var;
-    }
   }
   for (auto& b : blocks) {
     const double tau = static_cast<double>(b.n) / p0.fs;
@@ -1627,6 +1625,26 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // signal is as large as the noise). The others are withdrawn: they are not an explanation. Judging each
   // effect alone keeps a sensor's real effects when one large effect leaves an axis above the noise.
   auto over = [&](const Gap& g, int a) { return g.chi2_dof[static_cast<std::size_t>(a)] > o.unexplained_chi2_dof; };
+  // The fitted signal X_e θ_e of effect (s, e) per block on one axis, under fit f of that axis.
+  auto effect_signal = [&](const AxisData& ad, const Fit& f, Sensor s, Effect e) {
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(B);
+    for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) {
+      const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f.kept[static_cast<std::size_t>(i)])]);
+      if (pi.sensor == s && pi.effect == e) c += ad.Xr.col(f.kept[static_cast<std::size_t>(i)]) * f.theta[i];
+    }
+    return c;
+  };
+  // Withdraws a selected effect (form, output-step or unexplained check): out of the model and the selection,
+  // listed with its sensor's unexplained axes.
+  std::array<std::vector<std::string>, 2> withdrawn;
+  auto withdraw = [&](const std::pair<int, int>& ef) {
+    const std::string key = effect_key(static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
+    withdrawn[static_cast<std::size_t>(ef.first)].push_back(key);
+    R.selected.erase(std::remove_if(R.selected.begin(), R.selected.end(),
+                                    [&](const Step& st) { return st.sensor + "." + st.effect == key; }),
+                     R.selected.end());
+    remove_effect(cur, cur_effects, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
+  };
   // Functional form (Ramsey's RESET test): an effect that stands in for an out-of-catalog function of the same
   // inputs removes most of that function's excess and leaves the rest as a nonlinear function of its own fitted
   // signal. A cubic g-sensitivity (f³ = g²·f on the ±1 g faces, departing on the tilts) is read as the linear
@@ -1638,11 +1656,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     const AxisData& ad = ax[static_cast<std::size_t>(a)];
     const Fit f0 = fit_axis(ad, cols_for(ad, model_ids), -1);
     const int P = static_cast<int>(f0.kept.size());
-    Eigen::VectorXd c = Eigen::VectorXd::Zero(B);
-    for (int i = 0; i < P; ++i) {
-      const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f0.kept[static_cast<std::size_t>(i)])]);
-      if (pi.sensor == s && pi.effect == e) c += ad.Xr.col(f0.kept[static_cast<std::size_t>(i)]) * f0.theta[i];
-    }
+    Eigen::VectorXd c = effect_signal(ad, f0, s, e);
     const double cmax = c.cwiseAbs().maxCoeff();
     if (!(cmax > 0)) return 0.0;
     c /= cmax;
@@ -1664,7 +1678,6 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     const double lr = q0 - q1;
     return std::isfinite(lr) && lr > 0 ? lr : 0.0;
   };
-  std::array<std::vector<std::string>, 2> withdrawn;
   // Every selected effect, on every axis of its sensor: withdrawn when its own signal's square and cube are
   // significant (kFormLr) AND account for at least half of the in-sample χ² excess left on that axis. A catalog
   // effect whose form fits leaves nothing of the kind (measured on the 112 blind cases: LR ≤ 8 for every true
@@ -1687,22 +1700,12 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
                       model::sensor_name(static_cast<Sensor>(ef.first)), model::effect_info(static_cast<Effect>(ef.second)).name,
                       axis_name(a), lr, 100.0 * lr / excess);
         R.warnings.push_back(buf);
-        R.form_withdrawn.push_back(std::string(model::sensor_name(static_cast<Sensor>(ef.first))) + "." +
-                                   model::effect_info(static_cast<Effect>(ef.second)).name);
+        R.withdrawn_by_check.push_back({effect_key(static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second)), "its form does not fit"});
         form_drop.push_back(ef);
         break;
       }
     }
-    for (const auto& ef : form_drop) {
-      const std::string sn = model::sensor_name(static_cast<Sensor>(ef.first));
-      const std::string en = model::effect_info(static_cast<Effect>(ef.second)).name;
-      withdrawn[static_cast<std::size_t>(ef.first)].push_back(sn + "." + en);
-      R.selected.erase(std::remove_if(R.selected.begin(), R.selected.end(),
-                                      [&](const Step& st) { return st.sensor == sn && st.effect == en; }),
-                       R.selected.end());
-      remove_effect(cur, cur_effects, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
-    }
-
+    for (const auto& ef : form_drop) withdraw(ef);
   }
   // Output step (noise_model.h, output_step): on an axis rounded to a step the noise does not dither, the
   // rounding leaves each mean a bias that is a function of the input (a staircase of period one step). A
@@ -1727,14 +1730,9 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         const auto ua = static_cast<std::size_t>(a);
         const AxisData& ad = ax[ua];
         const Fit f_with = fit_axis(ad, cols_for(ad, cur), -1), f_without = fit_axis(ad, cols_for(ad, without), -1);
-        Eigen::VectorXd c = Eigen::VectorXd::Zero(B);
-        for (int i = 0; i < static_cast<int>(f_with.kept.size()); ++i) {
-          const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f_with.kept[static_cast<std::size_t>(i)])]);
-          if (pi.sensor == s && pi.effect == e) c += ad.Xr.col(f_with.kept[static_cast<std::size_t>(i)]) * f_with.theta[i];
-        }
-        const double rms = B > 0 ? std::sqrt(c.squaredNorm() / B) : 0.0;
+        const double rms = B > 0 ? std::sqrt(effect_signal(ad, f_with, s, e).squaredNorm() / B) : 0.0;
         const auto& q = R.quant[ua];
-        const double sb = std::sqrt(q.mean_bias_var);
+        const double sb = std::sqrt(R.stoch[ua].seg_bias_var);
         if (q.step > 0 && q.noise_sigma < 0.6 * q.step && rms < 2.0 * sb) {
           a_in = a;
           rms_in = rms;
@@ -1752,18 +1750,10 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
                     "(sigma %.2g) and the sensor's other axes do not show it: it cannot be told from the rounding",
                     model::sensor_name(s), model::effect_info(e).name, axis_name(a_in), rms_in, sb_in);
       R.warnings.push_back(buf);
-      R.step_withdrawn.push_back(std::string(model::sensor_name(s)) + "." + model::effect_info(e).name);
+      R.withdrawn_by_check.push_back({effect_key(s, e), "within the output step's rounding"});
       step_drop.push_back(ef);
     }
-    for (const auto& ef : step_drop) {
-      const std::string sn = model::sensor_name(static_cast<Sensor>(ef.first));
-      const std::string en = model::effect_info(static_cast<Effect>(ef.second)).name;
-      withdrawn[static_cast<std::size_t>(ef.first)].push_back(sn + "." + en);
-      R.selected.erase(std::remove_if(R.selected.begin(), R.selected.end(),
-                                      [&](const Step& st) { return st.sensor == sn && st.effect == en; }),
-                       R.selected.end());
-      remove_effect(cur, cur_effects, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
-    }
+    for (const auto& ef : step_drop) withdraw(ef);
   }
   const Gap sel_gap = gap_of(cur);
   for (int si = 0; si < 2; ++si) {
@@ -1812,15 +1802,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       }
       if (!explains) drop.push_back(ef);
     }
-    for (const auto& ef : drop) {
-      const std::string sn = model::sensor_name(static_cast<Sensor>(ef.first));
-      const std::string en = model::effect_info(static_cast<Effect>(ef.second)).name;
-      withdrawn[static_cast<std::size_t>(si)].push_back(sn + "." + en);
-      R.selected.erase(std::remove_if(R.selected.begin(), R.selected.end(),
-                                      [&](const Step& st) { return st.sensor == sn && st.effect == en; }),
-                       R.selected.end());
-      remove_effect(cur, cur_effects, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
-    }
+    for (const auto& ef : drop) withdraw(ef);
   }
   R.gap_after = gap_verdict(cur);
   R.final_ids = cur;

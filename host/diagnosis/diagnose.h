@@ -236,10 +236,10 @@ struct DiagnosisResult {
   std::array<NoiseFit, kNumAxes> noise;          // IEEE 952 terms of the Allan curve (report)
   std::array<StochasticModel, kNumAxes> stoch;   // the model carried into the likelihood (noise_model.h)
   std::array<double, kNumAxes> rw_prior_var{};   // random-walk bias variance at a segment start
-  // A quantised output (noise_model.h, output_step): its step, the noise ahead of the quantiser, and the variance
-  // of the rounding bias each segment mean keeps (carried in the segment-mean variances). step 0: continuous.
+  // A quantised output (noise_model.h, output_step): its step and the noise ahead of the quantiser (step 0:
+  // continuous). The variance of the rounding bias each segment mean keeps is stoch[a].seg_bias_var.
   struct Quantization {
-    double step = 0, noise_sigma = 0, mean_bias_var = 0;
+    double step = 0, noise_sigma = 0;
   };
   std::array<Quantization, kNumAxes> quant{};
   // Whole-log wander of the final model (REML over the block means, noise_model.h) against the static dwells'
@@ -285,12 +285,10 @@ struct DiagnosisResult {
   };
   std::vector<Sensitivity> sensitivity;
   std::vector<Unexplained> unexplained;
-  // Effects withdrawn by the functional-form check ("gyro.g_sensitivity"): what they leave is a nonlinear
-  // function of their own signal (docs/diagnosis.md § 5).
-  std::vector<std::string> form_withdrawn;
-  // Effects withdrawn because their signal on a coarsely quantised axis is within the output's rounding
-  // staircase and no other axis shows them (docs/diagnosis.md § 2, "Output step").
-  std::vector<std::string> step_withdrawn;
+  // Effects withdrawn by a check of their own, with why: {"gyro.g_sensitivity", "its form does not fit"} (what
+  // they leave is a nonlinear function of their own signal, docs/diagnosis.md § 5) or {…, "within the output
+  // step's rounding"} (their signal on a quantised axis is within its rounding staircase, § 2 "Output step").
+  std::vector<std::pair<std::string, std::string>> withdrawn_by_check;
   std::set<model::ParamId> final_ids;      // parameters of the final model (base + selected)
   std::array<double, 2> timing_shift_latency_s{}, timing_shift_ppm{};  // reference re-evaluated at this shift
   int timing_iterations = 0;

@@ -220,9 +220,8 @@ StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>&
 
 double output_step(std::vector<double> abs_diffs, double tiny) {
   const std::size_t n_all = abs_diffs.size();
-  std::vector<double> nz;
-  for (double d : abs_diffs)
-    if (std::isfinite(d) && d > tiny) nz.push_back(d);
+  std::vector<double>& nz = abs_diffs;  // the non-zero differences, in place
+  nz.erase(std::remove_if(nz.begin(), nz.end(), [tiny](double d) { return !(std::isfinite(d) && d > tiny); }), nz.end());
   if (nz.size() < 100) return 0.0;
   std::sort(nz.begin(), nz.end());
   // The smallest cluster (differences of one step, each off by at most a finer LSB): its median.

@@ -67,10 +67,8 @@ std::string outcome(const DiagnosisResult& r, const std::string& sensor, const s
   const std::string key = sensor + "." + effect;
   for (const auto& st : r.selected)
     if (st.sensor == sensor && st.effect == effect) return "selected";
-  if (std::find(r.form_withdrawn.begin(), r.form_withdrawn.end(), key) != r.form_withdrawn.end())
-    return "withdrawn: its form does not fit";
-  if (std::find(r.step_withdrawn.begin(), r.step_withdrawn.end(), key) != r.step_withdrawn.end())
-    return "withdrawn: within the output step's rounding";
+  for (const auto& [k, why] : r.withdrawn_by_check)
+    if (k == key) return "withdrawn: " + why;
   for (const auto& u : r.unexplained)
     if (std::find(u.withdrawn.begin(), u.withdrawn.end(), key) != u.withdrawn.end())
       return "withdrawn: leaves " + u.axis + " unexplained";
@@ -129,7 +127,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     const auto& q = r.quant[u];
     if (q.step > 0 && q.noise_sigma < 0.6 * q.step)
       line += "; output step " + fmt("%.3g", q.step) + " with " + fmt("%.2g", q.noise_sigma / q.step) +
-              " step of noise ahead of it: each static mean keeps a rounding bias (sigma " + fmt("%.2g", std::sqrt(q.mean_bias_var)) + ")";
+              " step of noise ahead of it: each static mean keeps a rounding bias (sigma " + fmt("%.2g", std::sqrt(r.stoch[u].seg_bias_var)) + ")";
     out.push_back(line);
   }
   return out;
@@ -253,7 +251,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"ratio", num(r.wander[u].ratio)}, {"gain", num(r.wander[u].gain)}, {"max_abs_z", num(r.wander[u].max_abs_z)}, {"whiteness_p", num(r.wander[u].whiteness_p)},
                                                  {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
-                                            {"mean_bias_sigma", num(std::sqrt(r.quant[u].mean_bias_var))}}}};
+                                            {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))}}}};
   }
   j["noise"] = noise;
   nlohmann::json cells = nlohmann::json::array();

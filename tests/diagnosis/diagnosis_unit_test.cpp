@@ -28,6 +28,39 @@ Sample referenced_sample(double t_s, int segment) {
   return s;
 }
 
+using Pose = std::array<double, 3>;  // gravity in the body, m/s²
+
+// A static log at 100 Hz: `passes` passes over `poses`, dwell_s each, one segment per pose visit; out(pass, f, y)
+// fills the six outputs of every sample.
+template <class Out>
+std::vector<Sample> static_pose_log(const std::vector<Pose>& poses, int passes, double dwell_s, Out out) {
+  const double fs = 100.0;
+  std::vector<Sample> log;
+  int seg = 0;
+  for (int pass = 0; pass < passes; ++pass)
+    for (const auto& f : poses) {
+      for (int i = 0; i < static_cast<int>(dwell_s * fs); ++i) {
+        Sample s = referenced_sample(static_cast<double>(log.size()) / fs, seg);
+        for (int j = 0; j < 3; ++j) s.f[j] = f[static_cast<std::size_t>(j)], s.w[j] = 0.0;
+        out(pass, f, s.y);
+        log.push_back(s);
+      }
+      ++seg;
+    }
+  return log;
+}
+
+// 24 poses tilted about two axes, so that every component of gravity takes many unrelated values.
+std::vector<Pose> two_axis_tilts() {
+  const double g = 9.80665;
+  std::vector<Pose> poses;
+  for (int k = 0; k < 24; ++k) {
+    const double a = 0.4 + 0.5 * k, b = 0.25 + 0.37 * k;
+    poses.push_back({g * std::sin(a) * std::cos(b), g * std::sin(b), g * std::cos(a) * std::cos(b)});
+  }
+  return poses;
+}
+
 TEST(DiagnosisStats, ChiSquareSurvivalAgainstClosedForms) {
   // k = 2: sf = e^{-x/2}; k = 4: e^{-x/2}(1 + x/2); k = 1: erfc(√(x/2)).
   for (double x : {0.01, 0.5, 1.0, 3.0, 10.0, 40.0, 200.0}) {
@@ -243,31 +276,16 @@ TEST(DiagnosisPipeline, OneAxisFarAboveItsNoiseDoesNotHideTheOthersEffects) {
   // poses (no catalog effect has it: same pose, same temperature, another value) at ~100 times its noise. The
   // g-sensitivity's fold fits mispredict gyro.z by a fraction of that axis's huge excess; summed raw over the
   // axes, that outweighed its gain on x and y and the real effect was lost with the axis named unexplained.
-  const double fs = 100.0, dwell_s = 8.0, g = 9.80665;
-  std::vector<std::array<double, 3>> poses;
-  for (int k = 0; k < 24; ++k) {
-    const double a = 0.4 + 0.5 * k, b = 0.25 + 0.37 * k;
-    poses.push_back({g * std::sin(a) * std::cos(b), g * std::sin(b), g * std::cos(a) * std::cos(b)});
-  }
+  const double g = 9.80665;
   auto make_log = [&](double flip_rad_s) {
     std::mt19937_64 rng(17);
     std::normal_distribution<double> n01;
-    std::vector<Sample> log;
-    int seg = 0;
-    for (int pass = 0; pass < 2; ++pass)
-      for (const auto& f : poses) {
-        for (int i = 0; i < static_cast<int>(dwell_s * fs); ++i) {
-          Sample s = referenced_sample(static_cast<double>(log.size()) / fs, seg);
-          for (int j = 0; j < 3; ++j) s.f[j] = f[static_cast<std::size_t>(j)], s.w[j] = 0.0;
-          for (int j = 0; j < 3; ++j) s.y[j] = f[static_cast<std::size_t>(j)] + 2e-3 * n01(rng);
-          s.y[3] = 2e-4 * f[2] / g + 5e-4 * n01(rng);  // g-sensitivity gx ← f_z, gy ← f_x
-          s.y[4] = -1.5e-4 * f[0] / g + 5e-4 * n01(rng);
-          s.y[5] = (pass == 0 ? flip_rad_s : -flip_rad_s) + 5e-4 * n01(rng);
-          log.push_back(s);
-        }
-        ++seg;
-      }
-    return log;
+    return static_pose_log(two_axis_tilts(), 2, 8.0, [&](int pass, const Pose& f, double* y) {
+      for (int j = 0; j < 3; ++j) y[j] = f[static_cast<std::size_t>(j)] + 2e-3 * n01(rng);
+      y[3] = 2e-4 * f[2] / g + 5e-4 * n01(rng);  // g-sensitivity gx ← f_z, gy ← f_x
+      y[4] = -1.5e-4 * f[0] / g + 5e-4 * n01(rng);
+      y[5] = (pass == 0 ? flip_rad_s : -flip_rad_s) + 5e-4 * n01(rng);
+    });
   };
   // (With Options::heldout_axis_scale = false, the sums before stop 24, g_sensitivity is lost on this log.)
   VectorSource src(make_log(2e-3));
@@ -284,34 +302,22 @@ TEST(DiagnosisPipeline, CoarseOutputStepIsNoiseNotAnEffect) {
   // An accelerometer axis rounded to a step 7x its noise: each pose's mean is off by where f_x falls between two
   // steps (up to ~0.3 step, tens of its white σ). No catalog effect has that form and it is not wander either:
   // it is the output's resolution, and the diagnosis must say so instead of "unexplained" or an effect.
-  const double fs = 100.0, dwell_s = 8.0, g = 9.80665, step = 0.02, sigma = 0.15 * step;
-  std::vector<std::array<double, 3>> poses;  // tilted about two axes: f_x falls anywhere within a step
-  for (int k = 0; k < 24; ++k) {
-    const double a = 0.4 + 0.5 * k, b = 0.25 + 0.37 * k;
-    poses.push_back({g * std::sin(a) * std::cos(b), g * std::sin(b), g * std::cos(a) * std::cos(b)});
-  }
+  const double fs = 100.0, dwell_s = 8.0, step = 0.02, sigma = 0.15 * step;
   std::mt19937_64 rng(3);
   std::normal_distribution<double> n01;
-  std::vector<Sample> log;
-  std::vector<double> pose_err;  // per pose: mean output − f_x (the rounding bias the test is about)
-  int seg = 0;
-  for (int pass = 0; pass < 2; ++pass)
-    for (const auto& f : poses) {
-      double e = 0;
-      const int n = static_cast<int>(dwell_s * fs);
-      for (int i = 0; i < n; ++i) {
-        Sample s = referenced_sample(static_cast<double>(log.size()) / fs, seg);
-        for (int j = 0; j < 3; ++j) s.f[j] = f[static_cast<std::size_t>(j)], s.w[j] = 0.0;
-        s.y[0] = step * std::round((f[0] + sigma * n01(rng)) / step);
-        s.y[1] = f[1] + 2e-3 * n01(rng);
-        s.y[2] = f[2] + 2e-3 * n01(rng);
-        for (int j = 0; j < 3; ++j) s.y[3 + j] = 5e-4 * n01(rng);
-        e += (s.y[0] - f[0]) / n;
-        log.push_back(s);
-      }
-      pose_err.push_back(e);
-      ++seg;
-    }
+  const std::vector<Sample> log = static_pose_log(two_axis_tilts(), 2, dwell_s, [&](int, const Pose& f, double* y) {
+    y[0] = step * std::round((f[0] + sigma * n01(rng)) / step);
+    y[1] = f[1] + 2e-3 * n01(rng);
+    y[2] = f[2] + 2e-3 * n01(rng);
+    for (int j = 0; j < 3; ++j) y[3 + j] = 5e-4 * n01(rng);
+  });
+  std::map<int, std::pair<double, int>> seg_err;  // per pose visit: Σ (output − f_x), samples: the rounding bias
+  for (const auto& smp : log) {
+    seg_err[smp.segment].first += smp.y[0] - smp.f[0];
+    ++seg_err[smp.segment].second;
+  }
+  std::vector<double> pose_err;
+  for (const auto& [seg, e] : seg_err) pose_err.push_back(e.first / e.second);
   double rms = 0;
   for (double e : pose_err) rms += e * e / static_cast<double>(pose_err.size());
   ASSERT_GT(std::sqrt(rms), 10.0 * sigma / std::sqrt(dwell_s * fs)) << "the log must carry the rounding bias";
@@ -658,8 +664,8 @@ TEST(DiagnosisPipeline, ClockErrorOfSeveralSamplesAtInstantaneousSteps) {
 // axis is named unexplained, following f_y^3. The control, the same log with a LINEAR g-sensitivity of equal
 // size at 1 g, must select g_sensitivity and withdraw nothing. Hand-made log, independent of host/sim.
 TEST(DiagnosisPipeline, CubicGSensitivityIsNotReadAsLinear) {
-  const double fs = 100.0, dwell_s = 8.0, g = 9.80665, amp_rad_s = 3e-3;
-  std::vector<std::array<double, 3>> poses;  // gravity in the body, tilted in steps of 30° about x, then about y
+  const double g = 9.80665, amp_rad_s = 3e-3;
+  std::vector<Pose> poses;  // gravity in the body, tilted in steps of 30° about x, then about y
   for (int k = 0; k < 12; ++k) {
     const double th = k * M_PI / 6.0;
     poses.push_back({0.0, g * std::sin(th), g * std::cos(th)});
@@ -668,24 +674,14 @@ TEST(DiagnosisPipeline, CubicGSensitivityIsNotReadAsLinear) {
   auto make_log = [&](bool cubic) {
     std::mt19937_64 rng(11);
     std::normal_distribution<double> n01;
-    std::vector<Sample> log;
-    int seg = 0;
-    for (int pass = 0; pass < 2; ++pass)
-      for (const auto& f : poses) {
-        for (int i = 0; i < static_cast<int>(dwell_s * fs); ++i) {
-          Sample s = referenced_sample(static_cast<double>(log.size()) / fs, seg);
-          for (int j = 0; j < 3; ++j) s.f[j] = f[static_cast<std::size_t>(j)], s.w[j] = 0.0;
-          const double fy = f[1] / g;
-          const double bias_y = amp_rad_s * (cubic ? fy * fy * fy : fy);
-          for (int j = 0; j < 3; ++j) {
-            s.y[j] = f[static_cast<std::size_t>(j)] + 2e-3 * n01(rng);
-            s.y[3 + j] = (j == 1 ? bias_y : 0.0) + 5e-4 * n01(rng);
-          }
-          log.push_back(s);
-        }
-        ++seg;
+    return static_pose_log(poses, 2, 8.0, [&](int, const Pose& f, double* y) {
+      const double fy = f[1] / g;
+      const double bias_y = amp_rad_s * (cubic ? fy * fy * fy : fy);
+      for (int j = 0; j < 3; ++j) {
+        y[j] = f[static_cast<std::size_t>(j)] + 2e-3 * n01(rng);
+        y[3 + j] = (j == 1 ? bias_y : 0.0) + 5e-4 * n01(rng);
       }
-    return log;
+    });
   };
   auto selected = [](const DiagnosisResult& r) {
     std::set<std::string> sel;
