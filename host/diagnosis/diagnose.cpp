@@ -189,6 +189,9 @@ struct BlockAcc {
 // is as exact as a latency of a millisecond.
 struct TimeShift {
   double latency_s = 0, ppm = 0;
+  // Samples this far beyond one sample interval from a reference step are left out too: the sensor reads the
+  // steps late or early by more than its shift accounts for, and its timing cannot be refined (diagnose()).
+  double step_margin_s = 0;
   bool active() const { return latency_s != 0.0 || ppm != 0.0; }
   double at(double t_rel_s) const { return latency_s + ppm * 1e-6 * t_rel_s; }
 };
@@ -279,14 +282,15 @@ class ShiftedReference {
   // left out (shifted or not). A step into a motion must count too: on a blind log the rate steps into
   // tumbles and sines, kept, read the step at a timing error of a millisecond as a segment offset of
   // (step / samples in the segment), ~1e-2 rad/s at 300 °/s, and pulled the gyro clock estimate with it.
-  bool near_step(double tq) const {
+  // margin_s widens the window on both sides (TimeShift::step_margin_s).
+  bool near_step(double tq, double margin_s = 0) const {
     if (ref_.size() < 2) return false;
-    const double eps = 1e-6 * h_;
-    auto it = std::lower_bound(ref_.begin(), ref_.end(), tq - h_ - eps, [](const Ref& r, double t) { return r.t_s < t; });
+    const double eps = 1e-6 * h_, w = h_ + margin_s;
+    auto it = std::lower_bound(ref_.begin(), ref_.end(), tq - w - eps, [](const Ref& r, double t) { return r.t_s < t; });
     if (it != ref_.begin()) --it;
-    for (; it + 1 != ref_.end() && it->t_s < tq + h_ - eps; ++it) {
+    for (; it + 1 != ref_.end() && it->t_s < tq + w - eps; ++it) {
       const Ref& b = *(it + 1);
-      if (b.t_s > tq - h_ + eps && step_at(it)) return true;
+      if (b.t_s > tq - w + eps && step_at(it)) return true;
     }
     return false;
   }
@@ -490,7 +494,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       // time, or the shifted one once its timing is re-evaluated): the sample on either side of the step is
       // left out (ShiftedReference::near_step says why).
       bool at_step = false;
-      for (int s = 0; s < 2; ++s) at_step |= src.near_step(cur.t_s - shift[s].at(in.t_s));
+      for (int s = 0; s < 2; ++s) at_step |= src.near_step(cur.t_s - shift[s].at(in.t_s), shift[s].step_margin_s);
       if (at_step) {
         // last_seg / last_had_ref keep the previous sample's: the next one still starts a new segment.
         prev = cur;
@@ -1412,11 +1416,34 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     }
     return dof > 0 ? chi2_sf(W, dof) : -1.0;
   };
+  // Turns of the temperature history the hysteresis column shows: its sign runs over the blocks in time order.
+  // With one turn (two runs), hysteresis is one offset between the two stretches of the log, which any slow
+  // drift gives as well (varied blind suite: a one-turn schedule under a 60 s Gauss-Markov gyro bias selected
+  // gyro.temp_hysteresis at p = 1e-4); two turns make it an alternation, which a drift does not mimic.
+  const int hysteresis_runs = [&]() {
+    const std::vector<ParamId> hp = model::effect_params(Sensor::kAccel, Effect::kTempHysteresis);
+    const AxisData& ad = ax[0];
+    int c_h = -1;
+    for (int i = 0; i < static_cast<int>(ad.cols.size()); ++i)
+      if (std::find(hp.begin(), hp.end(), ad.cols[static_cast<std::size_t>(i)]) != hp.end()) c_h = i;
+    if (c_h < 0) return -1;
+    int runs = 0, last = 0;
+    for (int b = 0; b < B; ++b) {
+      const double x = ad.Xr(b, c_h);
+      const int sg = x > 0.5 ? 1 : x < -0.5 ? -1 : 0;  // blocks across a turn (mean of d near 0) say nothing
+      if (sg != 0 && sg != last) ++runs, last = sg;
+    }
+    return runs;
+  }();
   auto score_all = [&](const std::set<ParamId>& cur, const std::set<std::pair<int, int>>& cur_effects) {
     std::vector<CandidateScore> out;
     for (auto [s, e] : candidates) {
       if (cur_effects.count({static_cast<int>(s), static_cast<int>(e)})) continue;
       out.push_back(score_one(cur, s, e));
+      if (e == Effect::kTempHysteresis && hysteresis_runs >= 0 && hysteresis_runs < 3 && out.back().excitable) {
+        out.back().excitable = false;
+        out.back().not_excitable.push_back("the temperature history turns once: one offset between two stretches, as a drift gives");
+      }
     }
     int m = 0;
     for (const auto& c : out) m += c.excitable ? 1 : 0;
@@ -2181,8 +2208,23 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   int it0 = 1;
   std::vector<std::string> probe_notes;
   bool force_linear[2] = {false, false};
+  // A sensor whose linear timing correction the log cannot determine (no motion within segments: no sines,
+  // only constant rates and static poses between instantaneous steps): its timing is left out of the model,
+  // and the reference keeps the shift the steps gave (if any). Moving on such a correction diverges.
+  bool linear_off[2] = {false, false};
+  auto set_forced = [&](Options& oo) {
+    oo.forced.clear();
+    for (int si = 0; si < 2; ++si)
+      if ((shift[si].active() || force_linear[si]) && !linear_off[si]) oo.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
+  };
+  std::array<StepLag, 2> lag{};
   if (opt.max_timing_iterations > 0) {
-    const auto lag = probe_step_lag(src, first.sample_rate_hz, first.duration_s);
+    lag = probe_step_lag(src, first.sample_rate_hz, first.duration_s);
+    if (std::getenv("IMUFORGE_DIAG_TRACE"))
+      for (int si = 0; si < 2; ++si)
+        std::fprintf(stderr, "step lag %d: valid %d n %d late %d early %d latency %.4g ppm %.4g rms %.3g max %.3g\n", si,
+                     lag[si].valid, lag[si].n_steps, lag[si].n_late, lag[si].n_early, lag[si].latency_s, lag[si].ppm, lag[si].rms_s,
+                     lag[si].max_abs_s);
     bool seeded = false;
     for (int si = 0; si < 2; ++si) {
       const StepLag& L = lag[static_cast<std::size_t>(si)];
@@ -2214,9 +2256,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       probe_notes.push_back(buf);
     }
     if (seeded || force_linear[0] || force_linear[1]) {
-      o.forced.clear();
-      for (int si = 0; si < 2; ++si)
-        if (shift[si].active() || force_linear[si]) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
+      set_forced(o);
       R = diagnose_core(src, base, o, shift);
       R.timing_iterations = seeded ? 1 : 0;
       it0 = seeded ? 2 : 1;
@@ -2224,11 +2264,38 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   }
   for (int it = it0; it <= opt.max_timing_iterations; ++it) {
     // Per sensor: the timing correction of the selected model (inverse-variance over the axes).
-    bool any = false, moved = false;
+    bool any = false, moved = false, dropped = false;
     TimeShift next[2] = {shift[0], shift[1]};
+    const double h = 1.0 / std::max(R.sample_rate_hz, 1e-9);
     for (int si = 0; si < 2; ++si) {
       const auto& te = R.timing_est[static_cast<std::size_t>(si)];
       if (!te.valid) continue;
+      if (std::getenv("IMUFORGE_DIAG_TRACE"))
+        std::fprintf(stderr, "timing it %d sensor %d: shift %.4g s %.4g ppm; correction %.4g +/- %.3g s, %.4g +/- %.3g ppm\n", it, si,
+                     shift[si].latency_s, shift[si].ppm, te.latency_s, te.sigma_latency_s, te.ppm, te.sigma_ppm);
+      // Determined: the correction's σ, as a time shift anywhere in the log, below half a sample interval (where
+      // the sines excite it, σ is 1e-5–1e-4 s at 100 Hz; with no motion within segments only the Earth rate turning
+      // in the body does, and σ is ~0.1 s: the "correction" is then whatever the other unmodelled effects push it to).
+      const double sig_end = std::hypot(te.sigma_latency_s, te.sigma_ppm * 1e-6 * R.duration_s);
+      if (!(te.sigma_latency_s < 0.5 * h && sig_end < 0.5 * h)) {
+        if ((shift[si].active() || force_linear[si]) && !linear_off[si]) {
+          linear_off[si] = true;
+          dropped = true;
+          // What the steps leave: with the steps' shift, its scatter (a bracket of ±h about the line); without
+          // one (a lag below a sample at the start that a clock drift carries past it), as far as any step was
+          // misread.
+          const StepLag& L = lag[static_cast<std::size_t>(si)];
+          next[si].step_margin_s = shift[si].active() ? std::max(h, 3.0 * L.rms_s) : L.max_n * h;
+          char buf[320];
+          std::snprintf(buf, sizeof buf,
+                        "%s: the log cannot refine the timing beyond the reference steps (linear correction sigma %.2g s, "
+                        "%.2g ppm: no motion within segments excites it): timing left out of the model%s",
+                        model::sensor_name(static_cast<Sensor>(si)), te.sigma_latency_s, te.sigma_ppm,
+                        shift[si].active() ? ", the reference kept at the steps' shift" : "");
+          probe_notes.push_back(buf);
+        }
+        continue;
+      }
       any = true;
       if (std::fabs(te.latency_s) > 0.1 * te.sigma_latency_s || std::fabs(te.ppm) > 0.1 * te.sigma_ppm) moved = true;
       next[si].latency_s += te.latency_s;
@@ -2242,16 +2309,20 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     double max_shift = 0;
     for (int si = 0; si < 2; ++si)
       for (double tt : {0.0, R.duration_s}) max_shift = std::max(max_shift, std::fabs(next[si].at(tt)));
-    if (it == 1 && max_shift < 0.5 / std::max(R.sample_rate_hz, 1e-9)) break;
-    if (!any || (!moved && it > 1)) break;
-    shift[0] = next[0];
-    shift[1] = next[1];
-    o.forced.clear();
-    for (int si = 0; si < 2; ++si)
-      if (shift[si].active() || force_linear[si]) o.forced.push_back({static_cast<Sensor>(si), Effect::kTiming});
+    if (!dropped) {
+      if (it == 1 && max_shift < 0.5 * h) break;
+      if (!any || (!moved && it > 1)) break;
+    }
+    if (max_shift >= 0.5 * h || it > 1) {
+      shift[0] = next[0];
+      shift[1] = next[1];
+    }
+    for (int si = 0; si < 2; ++si) shift[si].step_margin_s = next[si].step_margin_s;
+    set_forced(o);
+    const int ti = R.timing_iterations;
     R = diagnose_core(src, base, o, shift);
-    R.timing_iterations = it;
-    if (!moved) break;
+    R.timing_iterations = dropped && !moved ? ti : it;
+    if (!moved && !dropped) break;
   }
   // Whole-log wander. The static dwells fit the bias wander only up to their own length; with the final model,
   // the whole log's block means say how large it is over the hours between plateaus (REML, noise_model.h). Where
@@ -2295,6 +2366,20 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
         }
       R.warnings.insert(R.warnings.end(), notes.begin(), notes.end());
     }
+  }
+  // A timing the steps measured and the motion cannot refine: selected on the steps' evidence (whole-sample
+  // misreadings, which noise cannot make: step_lag.h), its magnitude the steps' line with that line's σ.
+  for (int si = 0; si < 2; ++si) {
+    if (!linear_off[si] || !shift[si].active()) continue;
+    Step st;
+    st.sensor = model::sensor_name(static_cast<Sensor>(si));
+    st.effect = "timing";
+    st.p_value = 0;
+    st.gap_after = R.gap_after;
+    R.selected.push_back(st);
+    const StepLag& L = lag[static_cast<std::size_t>(si)];
+    R.final_params.push_back({st.sensor + ".timing.latency_s", st.sensor, 0.0, L.sigma_latency_s});
+    R.final_params.push_back({st.sensor + ".timing.ppm", st.sensor, 0.0, L.sigma_ppm});
   }
   R.warnings.insert(R.warnings.end(), probe_notes.begin(), probe_notes.end());
   // The "before" picture is the base model against the reference as logged.

@@ -50,7 +50,8 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
       }
       if (!ok || n_old >= W || n_new >= W || (n_old > 0 && n_new > 0)) continue;
       ts[s].push_back(b.t_s - t_first);
-      lag[s].push_back(n_old > 0 ? (n_old - 0.5) * h : -(n_new + 0.5) * h);
+      lag[s].push_back(static_cast<double>(n_old - n_new));  // k: samples read late (> 0) or early (< 0)
+      out[static_cast<std::size_t>(s)].max_n = std::max(out[static_cast<std::size_t>(s)].max_n, std::max(n_old, n_new));
       if (n_old > 0) ++out[static_cast<std::size_t>(s)].n_late;
       if (n_new > 0) ++out[static_cast<std::size_t>(s)].n_early;
     }
@@ -76,23 +77,55 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
     auto decisive = [&](int k, int other) { return k >= 6 && 10 * k >= static_cast<int>(n) && other == 0; };
     r.sign = decisive(r.n_late, r.n_early) ? 1 : decisive(r.n_early, r.n_late) ? -1 : 0;
     if (n < 6) continue;
-    // Least squares lag = latency + ppm·1e-6·t.
-    double S = 0, St = 0, Stt = 0, Sy = 0, Sty = 0;
+    // Least squares lag = latency + ppm·1e-6·t through the steps' values (k − offset)·h.
+    double S = 0, St = 0, Stt = 0;
     for (std::size_t i = 0; i < n; ++i) {
-      const double t = ts[s][i], y = lag[s][i];
-      S += 1; St += t; Stt += t * t; Sy += y; Sty += t * y;
+      const double t = ts[s][i];
+      S += 1; St += t; Stt += t * t;
     }
     const double det = S * Stt - St * St;
     if (!(det > 0)) continue;
-    const double slope = (S * Sty - St * Sy) / det;
-    r.latency_s = (Sy - slope * St) / S;
-    r.ppm = slope * 1e6;
-    double ss = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double e = lag[s][i] - (r.latency_s + slope * ts[s][i]);
-      ss += e * e;
+    auto fit = [&](double offset, double& lat, double& slope, double& ss) {
+      double Sy = 0, Sty = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const double y = (lag[s][i] - offset) * h;
+        Sy += y; Sty += ts[s][i] * y;
+      }
+      slope = (S * Sty - St * Sy) / det;
+      lat = (Sy - slope * St) / S;
+      ss = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const double e = (lag[s][i] - offset) * h - (lat + slope * ts[s][i]);
+        ss += e * e;
+      }
+    };
+    // Where in its row interval a pose changed is not in the log. A schedule in whole samples changes the pose at
+    // the row that shows it: k = ⌈δ/h⌉ exactly, δ ∈ ((k−1)h, kh], value (k − ½)h, and k never steps against the
+    // clock's trend. A change anywhere within the interval (uniformly: segments not whole samples) gives
+    // E[k]·h = δ, value k·h, and neighbouring steps at one lag read k and k+1 in any order. Steps whose k goes
+    // against the trend tell the second apart; without any, the first; with one, their middle (k − ¼)h. The
+    // systematic σ below covers the reading either way.
+    double lat = 0, slope = 0, ss = 0;
+    fit(0.25, lat, slope, ss);
+    int against = 0;
+    for (std::size_t i = 0; i + 1 < n; ++i) {
+      const double dk = lag[s][i + 1] - lag[s][i];
+      if (slope > 0 ? dk < 0 : slope < 0 ? dk > 0 : dk != 0) ++against;
     }
+    r.phase = against == 0 ? StepLag::kAtRow : against >= 2 ? StepLag::kWithinInterval : StepLag::kUnknown;
+    const double offset = r.phase == StepLag::kAtRow ? 0.5 : r.phase == StepLag::kWithinInterval ? 0.0 : 0.25;
+    fit(offset, lat, slope, ss);
+    r.latency_s = lat;
+    r.ppm = slope * 1e6;
     r.rms_s = std::sqrt(ss / static_cast<double>(n));
+    // σ: the scatter about the line as if independent, plus a systematic part. The places of the changes within
+    // their row intervals need not be independent (segments of one length: the place creeps by the same fraction
+    // of a sample from step to step), so each step's error, within ±h/2, may be shared: up to h/2 on the latency
+    // (uniform, h²/12) and up to h over the steps' time span on the slope (uniform ±h/span, h²/(3·span²)).
+    const double s2 = std::max(ss / static_cast<double>(n - 2), h * h / 12.0);
+    const double span = ts[s][n - 1] - ts[s][0];
+    r.sigma_latency_s = std::sqrt(s2 * Stt / det + h * h / 12.0);
+    r.sigma_ppm = 1e6 * std::sqrt(s2 * S / det + (span > 0 ? h * h / (3.0 * span * span) : 1.0));
     r.max_abs_s = std::max(std::fabs(r.latency_s), std::fabs(r.latency_s + slope * duration_s));
     // A consistent line (brackets scatter ±h/2 about it) that reaches a whole sample somewhere: beyond what
     // the linear term and the ±h exclusion handle from the logged time.

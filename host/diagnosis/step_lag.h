@@ -39,8 +39,9 @@ bool reference_step(const R* p, const R& a, const R& b, const R* n) {
 // linearised timing term cannot see it: the derivative is zero on both sides of a step and the samples next
 // to it are left out. Each large step is then a direct observation of the lag: the number n of output
 // samples after it that still show the old input (or before it that already show the new one) brackets the
-// lag to one sample interval h, δ ∈ ((n−1)h, nh] under the convention of ShiftedReference (the step falls at
-// the row that shows the new pose). A line latency + ppm·t through these brackets is a starting point for
+// lag to one sample interval h, δ ∈ ((n−1)h, nh] when the pose changes at the row that shows the new pose (the
+// convention of ShiftedReference), or gives δ = E[n]·h when the change falls anywhere within the row interval
+// (blind logs whose segments are not whole samples); which of the two, the steps themselves say (`phase`). A line latency + ppm·t through these brackets is a starting point for
 // the re-evaluation, which then refines it on the motion (sines) with the linear term; the ±h exclusion
 // around each shifted step absorbs what is left of the bracket.
 // Below a sample interval the probe still tells the sign: with no lag, the output sample stamped at the row
@@ -52,7 +53,14 @@ bool reference_step(const R* p, const R& a, const R& b, const R* n) {
 struct StepLag {
   bool valid = false;
   double latency_s = 0, ppm = 0, max_abs_s = 0, rms_s = 0;
+  // σ of the line's latency and ppm: least squares with the brackets' scatter (at least a uniform ±h/2, h²/12),
+  // plus what the steps may share (the place of the change within a row interval: step_lag.cpp).
+  double sigma_latency_s = 0, sigma_ppm = 0;
   int n_steps = 0, n_late = 0, n_early = 0, sign = 0;
+  int max_n = 0;  // the most samples any one step was read late or early: how far its misreading reaches
+  // Where the pose changes within a row interval, as the steps' counts say (step_lag.cpp): at the row that shows
+  // the new pose (no count against the clock's trend), anywhere within it (two or more), or not told (one).
+  enum Phase { kAtRow, kWithinInterval, kUnknown } phase = kUnknown;
 };
 
 // Reads every step of the log (one streaming pass, memory bounded by the 1.5 s window), per sensor

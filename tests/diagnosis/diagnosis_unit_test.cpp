@@ -10,6 +10,7 @@
 #include <set>
 
 #include "host/diagnosis/noise_model.h"
+#include "host/model/measure.h"
 #include "host/diagnosis/stats.h"
 #include "tests/diagnosis/sim_helpers.h"
 
@@ -594,41 +595,38 @@ TEST(DiagnosisPipeline, MagnitudeThatHingesOnAnUnseparatedEffectIsFlagged) {
   for (const auto& [k, m] : max_shift) EXPECT_GT(m, 3.0) << k;
 }
 
-// Instantaneous steps into motion (a sine or a tumble starting from rest) with a clock error that grows to
-// several sample intervals: the first samples after each step read the old input, which no linearised timing
-// term describes (docs/diagnosis.md § timing, "lag probe"). Hand-made log, independent of host/sim: the output
-// is the reference function evaluated at t − δ(t), exactly. The diagnosis must find both clocks (one late,
-// one early), re-evaluate the reference there, and leave no axis above its noise.
-TEST(DiagnosisPipeline, ClockErrorOfSeveralSamplesAtInstantaneousSteps) {
-  const double fs = 100.0, seg_s = 4.0, g = 9.80665;
-  const int n_seg = 120;
-  const double lat[2] = {0.0, 1e-3}, ppm[2] = {-30.0, 50.0};  // accel early, gyro late: -14 ms, +25 ms at the end
-  const double sigma[2] = {1e-3, 5e-4};  // per sample at 100 Hz: the automotive class (ARW 0.34 °/√h ≈ 7e-4 rad/s)
+// The reference of segment k at tau seconds into it, for the clock tests: a face of the cube every 4 segments,
+// and segment kinds cycling static, rate about the vertical, (a sine about the vertical | the opposite constant
+// rate), tumble about a horizontal axis (gravity turns in the body).
+void cycling_reference(int k, double tau, bool with_sine, double* f, double* w) {
+  const double g = 9.80665;
   const double faces[6][3] = {{0, 0, -g}, {0, 0, g}, {0, -g, 0}, {0, g, 0}, {-g, 0, 0}, {g, 0, 0}};
-  // Reference (f, ω) at time t: segment k = floor(t / seg_s); kinds cycle static, rate about the vertical,
-  // sine about the vertical, tumble about a horizontal axis (gravity turns in the body).
-  auto ref = [&](double t, double* f, double* w) {
-    const int k = std::clamp(static_cast<int>(std::floor(t / seg_s)), 0, n_seg - 1);
-    const double tau = t - k * seg_s;
-    const int face = (k / 4) % 6, vert = face / 2;  // the axis gravity lies along
-    const double sgn = (k / 24) % 2 ? -1.0 : 1.0, r = 0.5 + 0.5 * ((k / 4) % 3);
-    for (int j = 0; j < 3; ++j) f[j] = faces[face][j], w[j] = 0.0;
-    switch (k % 4) {
-      case 1: w[vert] = sgn * r; break;
-      case 2: w[vert] = 1.2 * std::cos(2.0 * M_PI * 0.5 * tau); break;
-      case 3: {
-        const int ax = (vert + 1) % 3, m = (vert + 2) % 3;  // rotate about ax: gravity moves from vert to m
-        const double th = sgn * r * tau;
-        w[ax] = sgn * r;
-        const double fv = faces[face][vert];
-        f[vert] = fv * std::cos(th);
-        f[m] = fv * std::sin(th);
-        break;
-      }
-      default: break;
+  const int face = (k / 4) % 6, vert = face / 2;  // the axis gravity lies along
+  const double sgn = (k / 24) % 2 ? -1.0 : 1.0, r = 0.5 + 0.5 * ((k / 4) % 3);
+  for (int j = 0; j < 3; ++j) f[j] = faces[face][j], w[j] = 0.0;
+  switch (k % 4) {
+    case 1: w[vert] = sgn * r; break;
+    case 2: w[vert] = with_sine ? 1.2 * std::cos(2.0 * M_PI * 0.5 * tau) : -0.7 * sgn * r; break;
+    case 3: {
+      const int ax = (vert + 1) % 3, m = (vert + 2) % 3;  // rotate about ax: gravity moves from vert to m
+      const double th = sgn * r * tau;
+      w[ax] = sgn * r;
+      const double fv = faces[face][vert];
+      f[vert] = fv * std::cos(th);
+      f[m] = fv * std::sin(th);
+      break;
     }
-  };
-  std::mt19937_64 rng(5);
+    default: break;
+  }
+}
+
+// A log of n_seg segments of seg_s at 100 Hz whose outputs read ref (t, f, ω) at t − δ_s(t), exactly, with
+// δ_s = lat_s + ppm_s·1e-6·t per sensor {accel, gyro}, plus white noise sigma_s per sample.
+template <class Ref>
+std::vector<Sample> clocked_log(Ref ref, double seg_s, int n_seg, const double lat[2], const double ppm[2],
+                                const double sigma[2], unsigned seed) {
+  const double fs = 100.0;
+  std::mt19937_64 rng(seed);
   std::normal_distribution<double> n01;
   std::vector<Sample> log;
   const int n = static_cast<int>(n_seg * seg_s * fs);
@@ -642,9 +640,28 @@ TEST(DiagnosisPipeline, ClockErrorOfSeveralSamplesAtInstantaneousSteps) {
     }
     log.push_back(s);
   }
+  return log;
+}
+
+// Instantaneous steps into motion (a sine or a tumble starting from rest) with a clock error that grows to
+// several sample intervals: the first samples after each step read the old input, which no linearised timing
+// term describes (docs/diagnosis.md § timing, "lag probe"). Hand-made log, independent of host/sim: the output
+// is the reference function evaluated at t − δ(t), exactly. The diagnosis must find both clocks (one late,
+// one early), re-evaluate the reference there, and leave no axis above its noise.
+TEST(DiagnosisPipeline, ClockErrorOfSeveralSamplesAtInstantaneousSteps) {
+  const double seg_s = 4.0;
+  const int n_seg = 120;
+  const double lat[2] = {0.0, 1e-3}, ppm[2] = {-30.0, 50.0};  // accel early, gyro late: -14 ms, +25 ms at the end
+  const double sigma[2] = {1e-3, 5e-4};  // per sample at 100 Hz: the automotive class (ARW 0.34 °/√h ≈ 7e-4 rad/s)
+  // Reference (f, ω) at time t: segment k = floor(t / seg_s), the cycle of cycling_reference with sines.
+  auto ref = [&](double t, double* f, double* w) {
+    const int k = std::clamp(static_cast<int>(std::floor(t / seg_s)), 0, n_seg - 1);
+    cycling_reference(k, t - k * seg_s, true, f, w);
+  };
+  const std::vector<Sample> log = clocked_log(ref, seg_s, n_seg, lat, ppm, sigma, 5);
   VectorSource src(log);
   DiagnosisResult r = diagnose(src, basic_model(), Options{});
-  const double t_end = n / fs;
+  const double t_end = n_seg * seg_s;
   for (int si = 0; si < 2; ++si) {
     const auto i = static_cast<std::size_t>(si);
     // Within a fifth of a sample at both ends (the ±1-sample exclusion at each shifted step needs < 1).
@@ -656,6 +673,122 @@ TEST(DiagnosisPipeline, ClockErrorOfSeveralSamplesAtInstantaneousSteps) {
   for (const auto& w : r.warnings) said = said || w.find("reads the reference steps") != std::string::npos;
   EXPECT_TRUE(said);
   for (int a = 0; a < 6; ++a) EXPECT_LT(r.gap_after.chi2_dof[static_cast<std::size_t>(a)], 3.0) << axis_name(a);
+}
+
+// The same kind of log without sines: static faces, constant rates and tumbles, and pose changes that fall
+// anywhere within a row interval (segments of 4.0037 s). The gyro's rate is constant within every segment, so
+// only the reference steps show its clock; the linear timing term is excited by nothing but the Earth rate
+// turning in the body (σ ~0.1 s). Moving the shift on that "correction" diverged (blind logs with no sines:
+// the gyro clock driven to ±1 s and ±1000 ppm, held-out χ²/dof 10⁷). Now the shift stays where the steps put it,
+// the timing is reported from the steps with their σ, and every axis is at its noise. Second case: a lag below
+// one sample throughout, which the steps show only as a sign: nothing to refine, nothing moves.
+TEST(DiagnosisPipeline, GyroClockWithoutMotionWithinSegmentsKeepsTheStepsShift) {
+  const double seg_s = 4.0037;
+  const int n_seg = 120;
+  auto ref = [&](double t, double* f, double* w) {
+    const int k = std::clamp(static_cast<int>(std::floor(t / seg_s)), 0, n_seg - 1);
+    const double tau = t - k * seg_s;
+    cycling_reference(k, tau, false, f, w);
+    // The Earth rate (45° latitude, one direction per segment), turning in the body about the rotation axis:
+    // the only motion within a segment that the gyro's linear timing term sees.
+    const double We = 7.292115e-5;
+    double e[3] = {We * 0.7071 * std::cos(0.7 * k), We * 0.7071 * std::sin(0.7 * k), We * 0.7071};
+    for (int a = 0; a < 3; ++a)
+      if (w[a] != 0.0) {
+        const int p = (a + 1) % 3, q = (a + 2) % 3;
+        const double ang = -w[a] * tau, ep = e[p], eq = e[q];
+        e[p] = std::cos(ang) * ep - std::sin(ang) * eq;
+        e[q] = std::sin(ang) * ep + std::cos(ang) * eq;
+      }
+    for (int j = 0; j < 3; ++j) w[j] += e[j];
+  };
+  auto run = [&](double lat_s, double ppm) {
+    const double lats[2] = {0.0, lat_s}, ppms[2] = {0.0, ppm}, sigma[2] = {1e-3, 5e-4};
+    const std::vector<Sample> log = clocked_log(ref, seg_s, n_seg, lats, ppms, sigma, 11);
+    VectorSource src(log);
+    return diagnose(src, basic_model(), Options{});
+  };
+  const double t_end = n_seg * seg_s;
+  {
+    const double lat = 2e-3, ppm = 60.0;  // 2 ms to 31 ms: three samples by the end
+    const DiagnosisResult r = run(lat, ppm);
+    EXPECT_NEAR(r.timing_shift_latency_s[1], lat, 10e-3);
+    EXPECT_NEAR(r.timing_shift_latency_s[1] + r.timing_shift_ppm[1] * 1e-6 * t_end, lat + ppm * 1e-6 * t_end, 10e-3);
+    bool selected = false, said = false;
+    for (const auto& st : r.selected) selected = selected || (st.sensor == "gyro" && st.effect == "timing");
+    for (const auto& w : r.warnings) said = said || w.find("cannot refine the timing") != std::string::npos;
+    EXPECT_TRUE(selected);
+    EXPECT_TRUE(said);
+    // The steps' line and its σ (which carries the unknown place of each change within its row interval).
+    int reported = 0;
+    for (const auto& pe : r.final_params) {
+      const double truth = pe.name == "gyro.timing.ppm" ? ppm : pe.name == "gyro.timing.latency_s" ? lat : NAN;
+      if (std::isnan(truth)) continue;
+      ++reported;
+      EXPECT_GT(pe.sigma, 0.0) << pe.name;
+      EXPECT_LT(std::fabs(pe.value - truth), 3.0 * pe.sigma) << pe.name << " " << pe.value << " +/- " << pe.sigma;
+    }
+    EXPECT_EQ(reported, 2);
+    for (int a = 0; a < 6; ++a) EXPECT_LT(r.gap_after.chi2_dof[static_cast<std::size_t>(a)], 3.0) << axis_name(a);
+  }
+  {
+    const DiagnosisResult r = run(4e-3, 0.0);  // below a sample throughout
+    EXPECT_LT(std::fabs(r.timing_shift_latency_s[1]), 10e-3);
+    EXPECT_LT(std::fabs(r.timing_shift_ppm[1]), 100.0);
+    for (int a = 0; a < 6; ++a) EXPECT_LT(r.gap_after.chi2_dof[static_cast<std::size_t>(a)], 3.0) << axis_name(a);
+  }
+}
+
+// Temperature hysteresis needs two turns of the temperature history. With one turn the hysteresis column is one
+// offset between two stretches of the log, which any slow drift gives too, so the candidate is reported as not
+// excitable (not selected, not ruled out); with two it is an alternation and is found. Hand-made static log,
+// the accelerometer x output offset by h·d (d = ±1 after heating / cooling).
+TEST(DiagnosisPipeline, HysteresisNeedsTwoTurnsOfTheTemperatureHistory) {
+  const double fs = 100.0, dwell_s = 8.0, h = 2e-3;
+  const std::vector<Pose> poses = two_axis_tilts();
+  auto run = [&](const std::vector<double>& knots_C) {
+    const int n_dwell = 3 * static_cast<int>(poses.size());
+    const int n = static_cast<int>(n_dwell * dwell_s * fs);
+    const double legs = static_cast<double>(knots_C.size() - 1);
+    std::mt19937_64 rng(3);
+    std::normal_distribution<double> n01;
+    imuforge::model::HysteresisTracker tracker(0.5);
+    std::vector<Sample> log;
+    for (int i = 0; i < n; ++i) {
+      const int k = static_cast<int>(i / (dwell_s * fs));
+      Sample s = referenced_sample(i / fs, k);
+      const double x = legs * i / n;  // piecewise-linear temperature through the knots
+      const int leg = std::min(static_cast<int>(x), static_cast<int>(legs) - 1);
+      s.temp_C = knots_C[static_cast<std::size_t>(leg)] + (x - leg) * (knots_C[static_cast<std::size_t>(leg) + 1] - knots_C[static_cast<std::size_t>(leg)]);
+      const double d = tracker.update(s.temp_C);
+      const Pose& f = poses[static_cast<std::size_t>(k) % poses.size()];
+      for (int j = 0; j < 3; ++j) {
+        s.f[j] = f[static_cast<std::size_t>(j)];
+        s.y[j] = s.f[j] + 1e-3 * n01(rng);
+        s.y[3 + j] = 5e-4 * n01(rng);
+      }
+      s.y[0] += h * d;
+      log.push_back(s);
+    }
+    VectorSource src(log);
+    return diagnose(src, basic_model(), Options{});
+  };
+  auto selected = [](const DiagnosisResult& r) {
+    for (const auto& st : r.selected)
+      if (st.sensor == "accel" && st.effect == "temp_hysteresis") return true;
+    return false;
+  };
+  const DiagnosisResult two = run({25.0, 5.0, 45.0, 10.0});  // cooling, heating, cooling: three runs of d
+  EXPECT_TRUE(selected(two));
+  const DiagnosisResult one = run({25.0, 5.0, 45.0});  // cooling, then heating: two runs
+  EXPECT_FALSE(selected(one));
+  bool said = false;
+  for (const auto& c : one.ranking)
+    if (c.sensor == "accel" && c.effect == "temp_hysteresis") {
+      EXPECT_FALSE(c.excitable);
+      for (const auto& why : c.not_excitable) said = said || why.find("turns once") != std::string::npos;
+    }
+  EXPECT_TRUE(said);
 }
 
 // A gyro bias that goes with f_y³ (a cubic g-sensitivity: no catalog effect has it). On the ±1 g faces it equals

@@ -5,6 +5,8 @@ diagnosis against the acceptance figures of issue 12 (docs/diagnosis.md, "Blind 
 
   battery.py --imuforge build/host/bin/imuforge --suite smoke --work /tmp/blind      # the ctest subset
   battery.py --imuforge build/host/bin/imuforge --suite full --work /tmp/blind       # the benchmark
+  battery.py ... --suite holdout   # stochastic + mixed cases at seeds no change was tuned on (stop 24)
+  battery.py ... --suite varied    # every kind on another lab's schedule (blindgen size 'varied', stop 25)
   battery.py ... --source simulate      # same sensors through `imuforge simulate` (catalog effects only)
   battery.py ... --floors tools/blindgen/floors-smoke.json   # exit 1 when a figure falls below its floor
 
@@ -77,6 +79,22 @@ def suite(name):
         for k, kind in enumerate(blindgen.OOC_KINDS):
             for i in range(2):
                 cases.append(('mixed-%s-%d' % (kind, i), 'mixed', 8000 + 10 * k + i, {'ooc': kind}))
+        return cases
+    if name == 'varied':
+        # the same kinds on another lab's schedule (blindgen size 'varied': 2-5 plateaus in any order, ramps,
+        # short soaks, 2.5-10 s dwells, 2-4 rate levels, encoder noise), seeds 9000+; added at stop 25 to check
+        # that nothing leans on the shape of the 'full' scenario
+        for i, cls in enumerate(blindgen.CLASSES * 4):
+            cases.append(('null-%s-%d' % (cls, i), 'null', 9000 + i, {'cls': cls, 'size': 'varied'}))
+        for i, cls in enumerate(blindgen.CLASSES * 3):
+            cases.append(('stoch-%s-%d' % (cls, i), 'stochastic', 9100 + i, {'cls': cls, 'size': 'varied'}))
+        for i in range(15):
+            cases.append(('random-%d' % i, 'random', 9200 + i, {'size': 'varied'}))
+        for k, kind in enumerate(blindgen.OOC_KINDS):
+            cases.append(('ooc-%s' % kind, 'ooc', 9300 + k, {'ooc': kind, 'size': 'varied'}))
+            cases.append(('mixed-%s' % kind, 'mixed', 9400 + k, {'ooc': kind, 'size': 'varied'}))
+        for k, eff in enumerate(blindgen.CANDIDATES[::3]):
+            cases.append(('single-%s' % eff, 'single', 9500 + k, {'effect': eff, 'size': 'varied'}))
         return cases
     if name != 'full':
         raise SystemExit('unknown suite ' + name)
@@ -443,7 +461,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')

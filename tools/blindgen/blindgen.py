@@ -902,6 +902,24 @@ def default_scenario(rng, size='full', max_rate_dps=300.0):
     if size == 'full':
         common.update({'first_soak_s': 300, 'soak_s': 150, 'n_az': 2, 'n_tilt': 8, 'rate_dwell_s': 6, 'dwell_s': 5,
                        'rates_dps': [round(top / 10), round(top / 3), round(top)]})
+    elif size == 'varied':
+        # another lab's schedule: the diagnosis must not lean on the shape of the two above. 2-5 plateaus in any
+        # order (monotonic allowed: no guaranteed reversal), chamber ramps between them in half the cases,
+        # a short first soak (a short Allan record), 2.5-10 s dwells, 2-4 rate levels, sines in half,
+        # encoder noise on the logged angles
+        n_pl = int(rng.integers(2, 6))
+        common['plateaus_C'] = [float(x) for x in rng.choice([-20, -10, 0, 10, 25, 40, 55, 70], size=n_pl, replace=False)]
+        top_v = float(rng.uniform(0.4, 0.8)) * max_rate_dps
+        n_lv = int(rng.integers(2, 5))
+        ramp = float(rng.choice([0.0, 1.0, 2.0]))
+        common.update({'first_soak_s': float(rng.uniform(60, 200)), 'soak_s': float(rng.uniform(40, 180)),
+                       'n_az': int(rng.integers(1, 4)), 'n_tilt': int(rng.integers(3, 13)),
+                       'dwell_s': float(rng.uniform(2.5, 10)), 'rate_dwell_s': float(rng.uniform(3, 10)),
+                       'rates_dps': [round(top_v * f) for f in np.geomspace(0.08, 1.0, n_lv)],
+                       'sines': bool(rng.integers(0, 2)), 'ramp_C_per_min': ramp,
+                       'final_ramp': float(rng.choice([0.0, 1.0, 3.0])),
+                       'slew_C_per_min': float(rng.uniform(3, 15)), 'air_tau_s': float(rng.uniform(20, 200)),
+                       'encoder_noise_deg': float(rng.choice([0.0, 0.001, 0.005]))})
     else:
         common.update({'first_soak_s': 120, 'soak_s': 60, 'n_az': 1, 'n_tilt': 6, 'rate_dwell_s': 4, 'dwell_s': 4,
                        'rates_dps': [round(top / 5), round(top)]})
@@ -1160,7 +1178,7 @@ def main(argv):
     c.add_argument('--kind', required=True, choices=['random', 'single', 'example', 'null', 'stochastic', 'ooc', 'ooc_noise', 'mixed'])
     c.add_argument('--seed', type=int, required=True)
     c.add_argument('--out', required=True)
-    c.add_argument('--size', default='full', choices=['full', 'short'])
+    c.add_argument('--size', default='full', choices=['full', 'short', 'varied'])
     c.add_argument('--sensor', help='sensor JSON (kind example)')
     c.add_argument('--class', dest='cls', choices=CLASSES)
     c.add_argument('--effect', help='kind single: e.g. gyro.g_sensitivity')
