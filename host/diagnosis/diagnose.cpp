@@ -2375,6 +2375,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     st.sensor = model::sensor_name(static_cast<Sensor>(si));
     st.effect = "timing";
     st.p_value = 0;
+    st.from_reference_steps = true;
     st.gap_after = R.gap_after;
     R.selected.push_back(st);
     const StepLag& L = lag[static_cast<std::size_t>(si)];
@@ -2392,7 +2393,10 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
         st.shrink_pct[static_cast<std::size_t>(a)] =
             g0 > 0 ? 100.0 * (1.0 - std::max(st.gap_after.gap[static_cast<std::size_t>(a)], 0.0) / g0) : 0.0;
       }
-    // Timing candidates keep their first-pass score (against the logged reference) in the ranking.
+    // Timing candidates keep their first-pass score (against the logged reference) in the ranking, once: a
+    // sensor whose timing left the model (linear_off) was scored again in the last pass.
+    R.ranking.erase(std::remove_if(R.ranking.begin(), R.ranking.end(), [](const CandidateScore& c) { return c.effect == "timing"; }),
+                    R.ranking.end());
     for (const auto& c : first.ranking)
       if (c.effect == "timing") R.ranking.push_back(c);
     std::stable_sort(R.ranking.begin(), R.ranking.end(), [](const CandidateScore& x, const CandidateScore& y) {

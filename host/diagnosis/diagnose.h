@@ -202,6 +202,9 @@ struct Cell {
 struct Step {
   std::string effect, sensor;
   double p_value = 1, lr = 0;
+  // A timing selected on the reference steps' evidence alone (the motion cannot refine it, docs/diagnosis.md
+  // § timing): no likelihood-ratio step; its magnitude is the steps' line.
+  bool from_reference_steps = false;
   Gap gap_after;
   std::array<double, kNumAxes> shrink_pct{};
 };

@@ -66,7 +66,7 @@ std::string unit_of(int a) { return a < 3 ? "m/s^2" : "rad/s"; }
 std::string outcome(const DiagnosisResult& r, const std::string& sensor, const std::string& effect) {
   const std::string key = sensor + "." + effect;
   for (const auto& st : r.selected)
-    if (st.sensor == sensor && st.effect == effect) return "selected";
+    if (st.sensor == sensor && st.effect == effect) return st.from_reference_steps ? "selected (from the reference steps)" : "selected";
   for (const auto& [k, why] : r.withdrawn_by_check)
     if (k == key) return "withdrawn: " + why;
   for (const auto& u : r.unexplained)
@@ -189,7 +189,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
   nlohmann::json sel = nlohmann::json::array();
   for (const auto& s : r.selected)
     sel.push_back({{"effect", s.effect}, {"sensor", s.sensor}, {"p_value", num(s.p_value)}, {"lr", num(s.lr)},
-                   {"gap_after", gap_json(s.gap_after, &r.gap_before)}});
+                   {"from_reference_steps", s.from_reference_steps}, {"gap_after", gap_json(s.gap_after, &r.gap_before)}});
   j["selected"] = sel;
   j["dropped_by_backward_step"] = r.dropped;
   nlohmann::json amb = nlohmann::json::array();
@@ -311,7 +311,8 @@ std::string summary_text(const DiagnosisResult& r) {
   o << "\nHOW FAR: greedy forward selection\n";
   if (r.selected.empty()) o << "  nothing significant beyond the model\n";
   for (const auto& s : r.selected) {
-    o << "  + " << s.sensor << "." << s.effect << " (p=" << fmt("%.2g", s.p_value) << "): gap";
+    o << "  + " << s.sensor << "." << s.effect
+      << (s.from_reference_steps ? std::string(" (from the reference steps)") : " (p=" + fmt("%.2g", s.p_value) + ")") << ": gap";
     const int a0 = s.sensor == "accel" ? 0 : 3;
     for (int a = a0; a < a0 + 3; ++a)
       o << " " << axis_name(a) << "=" << fmt("%.3e", s.gap_after.gap[static_cast<std::size_t>(a)]) << " ("
@@ -323,7 +324,8 @@ std::string summary_text(const DiagnosisResult& r) {
   // gyro latency alone reads 4-9 ms, jointly 0.50 ms).
   for (const auto& s : r.selected) {
     const std::string key = s.sensor + "." + s.effect + ".";
-    o << "  magnitude of " << s.sensor << "." << s.effect << " (final joint fit):\n";
+    o << "  magnitude of " << s.sensor << "." << s.effect
+      << (s.from_reference_steps ? " (the reference steps' line):\n" : " (final joint fit):\n");
     for (const auto& m : r.final_params)
       if (m.name.rfind(key, 0) == 0)
         o << "    " << m.name << " [" << m.axis << "] = " << fmt("%.4g", m.value) << " +/- " << fmt("%.2g", m.sigma) << "\n";
