@@ -1421,12 +1421,18 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // drift gives as well (varied blind suite: a one-turn schedule under a 60 s Gauss-Markov gyro bias selected
   // gyro.temp_hysteresis at p = 1e-4); two turns make it an alternation, which a drift does not mimic.
   const int hysteresis_runs = [&]() {
-    const std::vector<ParamId> hp = model::effect_params(Sensor::kAccel, Effect::kTempHysteresis);
-    const AxisData& ad = ax[0];
+    // d is one column for every axis that carries a hysteresis parameter (either sensor's, whichever is a
+    // candidate or in the model).
+    const AxisData* adp = nullptr;
     int c_h = -1;
-    for (int i = 0; i < static_cast<int>(ad.cols.size()); ++i)
-      if (std::find(hp.begin(), hp.end(), ad.cols[static_cast<std::size_t>(i)]) != hp.end()) c_h = i;
+    for (int a = 0; a < kNumAxes && c_h < 0; ++a) {
+      const AxisData& ad = ax[static_cast<std::size_t>(a)];
+      const std::vector<ParamId> hp = model::effect_params(ad.sensor, Effect::kTempHysteresis);
+      for (int i = 0; i < static_cast<int>(ad.cols.size()) && c_h < 0; ++i)
+        if (std::find(hp.begin(), hp.end(), ad.cols[static_cast<std::size_t>(i)]) != hp.end()) c_h = i, adp = &ad;
+    }
     if (c_h < 0) return -1;
+    const AxisData& ad = *adp;
     int runs = 0, last = 0;
     for (int b = 0; b < B; ++b) {
       const double x = ad.Xr(b, c_h);
@@ -1473,6 +1479,12 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   auto remove_effect = [](std::set<ParamId>& ids, std::set<std::pair<int, int>>& effs, Sensor s, Effect e) {
     effs.erase({static_cast<int>(s), static_cast<int>(e)});
     for (ParamId id : model::effect_params(s, e)) ids.erase(id);
+  };
+  // The parameters of a model without one of its effects (leave-one-out re-tests and checks).
+  auto params_without = [](const std::set<ParamId>& ids, Sensor s, Effect e) {
+    std::set<ParamId> w = ids;
+    for (ParamId id : model::effect_params(s, e)) w.erase(id);
+    return w;
   };
   auto make_step = [&](const std::string& sensor, const std::string& effect, double p, double lr, const std::set<ParamId>& cur) {
     Step st;
@@ -1595,10 +1607,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         if (fixed_effects.count(ef)) continue;
         const Sensor s = static_cast<Sensor>(ef.first);
         const Effect e = static_cast<Effect>(ef.second);
-        std::set<ParamId> without = cur;
-        std::set<std::pair<int, int>> ew = cur_effects;
-        remove_effect(without, ew, s, e);
-        back.push_back(score_one(without, s, e));
+        back.push_back(score_one(params_without(cur, s, e), s, e));
       }
       const double level = o.alpha / std::max<std::size_t>(1, sc.size());
       for (const auto& c : back)
@@ -1748,9 +1757,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       if (fixed_effects.count(ef)) continue;
       const Sensor s = static_cast<Sensor>(ef.first);
       const Effect e = static_cast<Effect>(ef.second);
-      std::set<ParamId> without = cur;
-      std::set<std::pair<int, int>> ew = cur_effects;
-      remove_effect(without, ew, s, e);
+      const std::set<ParamId> without = params_without(cur, s, e);
       double lr_rest = 0, rms_in = 0, sb_in = 0;
       int dof_rest = 0, a_in = -1;
       for (int a = 3 * ef.first; a < 3 * ef.first + 3; ++a) {
@@ -1792,9 +1799,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     if (!any_over || sel_s.empty()) continue;
     std::vector<std::pair<int, int>> drop;
     for (const auto& ef : sel_s) {
-      std::set<ParamId> without = cur;
-      std::set<std::pair<int, int>> ew = cur_effects;
-      remove_effect(without, ew, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
+      const std::set<ParamId> without = params_without(cur, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
       const Gap g0 = gap_of(without);
       bool explains = false;
       for (int a = 3 * si; a < 3 * si + 3; ++a) {

@@ -112,8 +112,7 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
       const double dk = lag[s][i + 1] - lag[s][i];
       if (slope > 0 ? dk < 0 : slope < 0 ? dk > 0 : dk != 0) ++against;
     }
-    r.phase = against == 0 ? StepLag::kAtRow : against >= 2 ? StepLag::kWithinInterval : StepLag::kUnknown;
-    const double offset = r.phase == StepLag::kAtRow ? 0.5 : r.phase == StepLag::kWithinInterval ? 0.0 : 0.25;
+    const double offset = against == 0 ? 0.5 : against >= 2 ? 0.0 : 0.25;
     fit(offset, lat, slope, ss);
     r.latency_s = lat;
     r.ppm = slope * 1e6;

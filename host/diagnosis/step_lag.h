@@ -41,9 +41,10 @@ bool reference_step(const R* p, const R& a, const R& b, const R* n) {
 // samples after it that still show the old input (or before it that already show the new one) brackets the
 // lag to one sample interval h, δ ∈ ((n−1)h, nh] when the pose changes at the row that shows the new pose (the
 // convention of ShiftedReference), or gives δ = E[n]·h when the change falls anywhere within the row interval
-// (blind logs whose segments are not whole samples); which of the two, the steps themselves say (`phase`). A line latency + ppm·t through these brackets is a starting point for
-// the re-evaluation, which then refines it on the motion (sines) with the linear term; the ±h exclusion
-// around each shifted step absorbs what is left of the bracket.
+// (blind logs whose segments are not whole samples); which of the two, the steps themselves say (step_lag.cpp).
+// A line latency + ppm·t through these brackets is a starting point for the re-evaluation, which then refines
+// it on the motion (sines) with the linear term; the ±h exclusion around each shifted step absorbs what is left
+// of the bracket.
 // Below a sample interval the probe still tells the sign: with no lag, the output sample stamped at the row
 // that first shows the new pose reads the new pose whatever the step's place in the row interval (and the
 // one before reads the old), so a step read late (n_old ≥ 1) or early (n_new ≥ 1) is a direct observation
@@ -58,9 +59,6 @@ struct StepLag {
   double sigma_latency_s = 0, sigma_ppm = 0;
   int n_steps = 0, n_late = 0, n_early = 0, sign = 0;
   int max_n = 0;  // the most samples any one step was read late or early: how far its misreading reaches
-  // Where the pose changes within a row interval, as the steps' counts say (step_lag.cpp): at the row that shows
-  // the new pose (no count against the clock's trend), anywhere within it (two or more), or not told (one).
-  enum Phase { kAtRow, kWithinInterval, kUnknown } phase = kUnknown;
 };
 
 // Reads every step of the log (one streaming pass, memory bounded by the 1.5 s window), per sensor
