@@ -1885,9 +1885,9 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       };
       if (std::getenv("IMUFORGE_DIAG_TRACE"))
         for (const auto& l : lines)
-          std::fprintf(stderr, "wander %s %s: ratio %.2f gain %.1f max|z| %.2f LB p %.2g\n", axis_name(a),
+          std::fprintf(stderr, "wander %s %s: ratio %.2f gain %.1f max|z| %.2f LB p %.2g sum r^2 %.3f\n", axis_name(a),
                        l.kind == WholeLogWander::kFlicker ? "flicker" : l.kind == WholeLogWander::kRandomWalk ? "rw" : "none", l.ratio,
-                       l.gain, l.max_abs_z, l.whiteness_p);
+                       l.gain, l.max_abs_z, l.whiteness_p, l.autocorr_sq);
       // The likelier line, unless it fails a check and the other passes them (flicker and random walk differ
       // in shape beyond a quarter of the log, where the likelihood tells them apart least).
       const WholeLogWander* pick = nullptr;
@@ -1905,8 +1905,24 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       w.gain = pick->gain;
       w.max_abs_z = pick->max_abs_z;
       w.whiteness_p = pick->whiteness_p;
+      w.autocorr_sq = pick->autocorr_sq;
       w.beyond_reason = reason(*pick);
       w.beyond_limit = !w.beyond_reason.empty();
+      // Within the held-out threshold, but what is left is neither a catalog effect nor stationary wander
+      // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a
+      // random walk, and the floor it raised hides the residual from the held-out χ².
+      const bool structured = (w.beyond_reason == "jump" && pick->max_abs_z > o.wander_max_z) ||
+                              (w.beyond_reason == "periodic" && pick->autocorr_sq >= o.wander_unexplained_autocorr);
+      if (structured && pick->gain >= o.wander_unexplained_gain && !over(R.gap_after, a)) {
+        Unexplained u;
+        u.axis = axis_name(a);
+        u.chi2_dof_after = R.gap_after.chi2_dof[ua];
+        u.basis = "wander";
+        std::vector<double> r, pv;
+        heldout_blocks(ad, cols_for(ad, cur), folds, blocks, r, pv);
+        u.signature = residual_signature(blocks, r, pv);
+        R.unexplained.push_back(u);
+      }
     }
 
   // ---- Magnitude sensitivity. A catalog effect that is not selected but that the data cannot exclude

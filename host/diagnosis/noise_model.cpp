@@ -351,7 +351,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
   Eigen::MatrixXd innov(n, c);
   Eigen::VectorXd S(n);
   // −2 log L_REML: Σ log S + χ² of the GLS fit + log det of the columns' information.
-  double max_abs_z = 0, whiteness_p = 1;
+  double max_abs_z = 0, whiteness_p = 1, autocorr_sq = 0;
   auto m2ll = [&](const StochasticModel& mm, double rw0) {
     whiten_segment(mm, t_s, dur_s, rows, rw0, innov, S, nullptr, seg_of);
     estimator::NormalEquations ne(P);
@@ -380,6 +380,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
     }
     const int L = std::min(10, n / 5);
     whiteness_p = 1;
+    autocorr_sq = 0;
     if (L >= 1) {
       const double mean = e.mean();
       const Eigen::VectorXd ec = e.array() - mean;
@@ -388,6 +389,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
       for (int k = 1; k <= L && c0 > 0; ++k) {
         const double rk = ec.head(n - k).dot(ec.tail(n - k)) / c0;
         Q += rk * rk / static_cast<double>(n - k);
+        autocorr_sq += rk * rk;
       }
       Q *= static_cast<double>(n) * static_cast<double>(n + 2);
       whiteness_p = chi2_sf(Q, L);
@@ -408,6 +410,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
     m2ll(mm, rw0);
     w.max_abs_z = max_abs_z;
     w.whiteness_p = whiteness_p;
+    w.autocorr_sq = autocorr_sq;
   };
   // Flicker: the bank's σ raised (a bank exists whenever the Allan fit had points).
   if (!m.bank_tau_s.empty() && m0.bank_sigma > 0) {

@@ -99,6 +99,9 @@ struct WholeLogWander {
   // Ljung–Box p-value of those innovations (lags 1..10, block order): whitened by the right noise model they are
   // white; a slow periodic bias (a line in the spectrum) that the raised wander "explains" leaves them correlated.
   double whiteness_p = 1;
+  // Σ r_k² of those innovations over the same lags: how much of their variance their own past predicts, an effect
+  // size beside the p-value (which grows with the number of blocks for any fixed mismatch of the noise shape).
+  double autocorr_sq = 0;
 };
 std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,

@@ -92,7 +92,8 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       line += "not explained by any effect in the catalog";
       if (!ue->signature.empty())
         line += "; the residual follows " + ue->signature.front().input + " (r = " + fmt("%.2f", ue->signature.front().correlation) + ")";
-      line += " (held-out chi2/dof " + fmt("%.3g", ue->chi2_dof_after) + ")";
+      line += " (held-out chi2/dof " + fmt("%.3g", ue->chi2_dof_after) +
+              (ue->basis == "wander" ? ", within the threshold; named on the whole log's residual" : "") + ")";
       // Why it is not read as noise either (the whole log's wander, diagnose.h Options::wander_*).
       const auto& w = r.wander[u];
       if (w.beyond_limit && w.beyond_reason == "too_large")
@@ -221,7 +222,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
   for (const auto& x : r.unexplained) {
     nlohmann::json sig = nlohmann::json::array();
     for (const auto& e : x.signature) sig.push_back({{"input", e.input}, {"correlation", num(e.correlation)}});
-    un.push_back({{"axis", x.axis}, {"chi2_dof_after", num(x.chi2_dof_after)}, {"signature", sig}, {"withdrawn", x.withdrawn}});
+    un.push_back({{"axis", x.axis}, {"chi2_dof_after", num(x.chi2_dof_after)}, {"signature", sig}, {"withdrawn", x.withdrawn}, {"basis", x.basis}});
   }
   j["unexplained"] = un;
   j["timing_shift"] = {{"accel", {{"latency_s", num(r.timing_shift_latency_s[0])}, {"ppm", num(r.timing_shift_ppm[0])}}},
@@ -249,6 +250,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"K", num(m.K)}}},
                            {"whole_log_wander", {{"kind", r.wander[u].kind}, {"value", num(r.wander[u].value)},
                                                  {"ratio", num(r.wander[u].ratio)}, {"gain", num(r.wander[u].gain)}, {"max_abs_z", num(r.wander[u].max_abs_z)}, {"whiteness_p", num(r.wander[u].whiteness_p)},
+                                                 {"autocorr_sq", num(r.wander[u].autocorr_sq)},
                                                  {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
                                             {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))}}}};
