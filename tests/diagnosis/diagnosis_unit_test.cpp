@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -172,6 +174,51 @@ TEST(DiagnosisNoiseModel, FlickerFloorIsCarriedToTheLogDuration) {
 // model does not carry (its K = 0, a small flicker). The REML raise must find the random walk near its true K
 // and pass the residual checks; a bias STEP or a slow SINE of similar size on the same white noise must fail
 // them (one jump; correlated innovations), so that such an axis stays "unexplained" in the diagnosis.
+TEST(DiagnosisNoiseModel, WhiteningOfARandomWalkIsTheExactLikelihoodOfItsBlockMeans) {
+  // Block means of white noise + a random walk, blocks of unequal length with gaps (as poses are cut): the
+  // filter's Σ log S + ν²/S must equal the dense Gaussian −2 log L of the same means. The dense covariance, for
+  // blocks [a_i, a_i + d_i] and the walk started at a_0 with prior variance p0:
+  //   Cov(mean_i, mean_j) = p0 + K² (t_i − a_0)        (block i wholly before block j, t_i its mid time)
+  //   Var(mean_i)         = p0 + K² (t_i − a_0 − d_i/6) + white
+  StochasticModel m;
+  m.N = 2e-3;
+  m.K = 3e-4;
+  const double p0 = 1e-6;
+  const std::vector<double> d = {30.0, 30.0, 12.0, 5.0, 30.0, 2.5, 8.0, 30.0};
+  const std::vector<double> gap = {0.0, 0.0, 4.0, 0.0, 17.0, 0.5, 0.0, 60.0};
+  const int n = static_cast<int>(d.size());
+  std::vector<double> t(static_cast<std::size_t>(n));
+  double a = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const auto u = static_cast<std::size_t>(i);
+    a += gap[u];
+    t[u] = a + 0.5 * d[u];
+    a += d[u];
+  }
+  Eigen::MatrixXd C(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const auto ui = static_cast<std::size_t>(std::min(i, j));
+      C(i, j) = p0 + m.K * m.K * (t[ui] - (t[0] - 0.5 * d[0]));
+      if (i == j) C(i, j) += -m.K * m.K * d[ui] / 6.0 + m.white_var(d[ui]);
+    }
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n01;
+  Eigen::MatrixXd rows(n, 1);
+  for (int i = 0; i < n; ++i) rows(i, 0) = 1e-3 * n01(rng);
+  Eigen::MatrixXd innov(n, 1);
+  Eigen::VectorXd S(n);
+  whiten_segment(m, t, d, rows, p0, innov, S);
+  double kf = 0.0;
+  for (int i = 0; i < n; ++i) kf += std::log(S[i]) + innov(i, 0) * innov(i, 0) / S[i];
+  const Eigen::LLT<Eigen::MatrixXd> llt(C);
+  ASSERT_EQ(llt.info(), Eigen::Success);
+  const Eigen::VectorXd y = rows.col(0);
+  double dense = y.dot(llt.solve(y));
+  for (int i = 0; i < n; ++i) dense += 2.0 * std::log(llt.matrixL()(i, i));
+  EXPECT_NEAR(kf, dense, 1e-9 * std::fabs(dense));
+}
+
 TEST(DiagnosisNoiseModel, WholeLogWanderFindsARandomWalkAndRejectsAStepAndASine) {
   const int n = 600;
   const double dur_s = 5.0, N = 1e-3, K_true = 2e-4;  // white density; random walk, unit/√s

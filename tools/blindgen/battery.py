@@ -96,6 +96,20 @@ def suite(name):
         for k, eff in enumerate(blindgen.CANDIDATES[::3]):
             cases.append(('single-%s' % eff, 'single', 9500 + k, {'effect': eff, 'size': 'varied'}))
         return cases
+    if name == 'varied2':
+        # the varied schedule at new seeds (9600+), added at stop 26 after its change was fixed: nothing was tuned
+        # on it; two out-of-catalog cases per kind, since the varied suite's one each cannot tell 0.9 from 0.75
+        for i, cls in enumerate(blindgen.CLASSES * 4):
+            cases.append(('null-%s-%d' % (cls, i), 'null', 9600 + i, {'cls': cls, 'size': 'varied'}))
+        for i, cls in enumerate(blindgen.CLASSES * 3):
+            cases.append(('stoch-%s-%d' % (cls, i), 'stochastic', 9700 + i, {'cls': cls, 'size': 'varied'}))
+        for i in range(10):
+            cases.append(('random-%d' % i, 'random', 9800 + i, {'size': 'varied'}))
+        for k, kind in enumerate(blindgen.OOC_KINDS):
+            for i in range(2):
+                cases.append(('ooc-%s-%d' % (kind, i), 'ooc', 9900 + 10 * k + i, {'ooc': kind, 'size': 'varied'}))
+            cases.append(('mixed-%s' % kind, 'mixed', 9990 + k, {'ooc': kind, 'size': 'varied'}))
+        return cases
     if name != 'full':
         raise SystemExit('unknown suite ' + name)
     for s in range(1, 51):
@@ -461,7 +475,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
