@@ -1441,15 +1441,60 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     }
     return runs;
   }();
+  // With one turn, the hysteresis is tested again under the largest bias wander the whole log supports WITHOUT
+  // it: per axis of the sensor, the likelier whole-log raise (flicker or random walk; noise_model.h) of the model
+  // as it stands, whatever its checks say, then the GLS likelihood ratio of the hysteresis columns under that
+  // raise, summed over the axes. A drift that happens to differ between the two stretches is what the raise
+  // describes, so its "hysteresis" falls to noise; a real hysteresis is one jump at the turn that a stationary
+  // wander cannot make, and stays far above the level. Returns the p-value (−1: nothing to test).
+  auto one_turn_p = [&](const std::set<ParamId>& cur, Sensor s) {
+    const std::vector<ParamId> eids = model::effect_params(s, Effect::kTempHysteresis);
+    double lr = 0;
+    int dof = 0;
+    for (int a = s == Sensor::kAccel ? 0 : 3, e = a + 3; a < e; ++a) {
+      const auto ua = static_cast<std::size_t>(a);
+      const AxisData& ad = ax[ua];
+      const Fit fc = fit_axis(ad, cols_for(ad, cur), -1);
+      const Fit fa = fit_axis(ad, cols_for(ad, cur, eids), -1);
+      if (fa.kept.size() <= fc.kept.size()) continue;
+      const std::array<WholeLogWander, 2> lines =
+          whole_log_wander(R.stoch[ua], blk_t, blk_dur, design_rows(ad, fc.kept, 0), R.rw_prior_var[ua], R.duration_s,
+                           std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg);
+      StochasticModel sm = R.stoch[ua];
+      sm.bank_sigma = std::max(sm.bank_sigma, sm.bank_sigma_lik);
+      double rw0 = R.rw_prior_var[ua];
+      const WholeLogWander* pick = nullptr;
+      for (const auto& l : lines)
+        if (l.kind != WholeLogWander::kNone && (!pick || l.gain > pick->gain)) pick = &l;
+      if (pick && pick->kind == WholeLogWander::kFlicker) sm.bank_sigma = sm.bank_sigma_lik = pick->bank_sigma;
+      if (pick && pick->kind == WholeLogWander::kRandomWalk) {
+        sm.K = pick->K;
+        rw0 = pick->K * pick->K * R.duration_s / 6.0;
+      }
+      // GLS residual sum of squares of [z | kept columns] under sm.
+      auto gls_rss = [&](const std::vector<int>& kept) {
+        const int P = static_cast<int>(kept.size());
+        const Eigen::MatrixXd rows = design_rows(ad, kept, 0);
+        Eigen::MatrixXd innov(B, P + 1);
+        Eigen::VectorXd S(B);
+        whiten_segment(sm, blk_t, blk_dur, rows, rw0, innov, S, nullptr, &blk_seg);
+        estimator::NormalEquations ne(P);
+        for (int b = 0; b < B; ++b) ne.add_row_lower(innov.row(b).tail(P).transpose(), innov(b, 0), 1.0 / S[b]);
+        ne.symmetrize();
+        std::vector<int> cols(static_cast<std::size_t>(P));
+        for (int i = 0; i < P; ++i) cols[static_cast<std::size_t>(i)] = i;
+        return estimator::fit_subset(ne, cols).rss;
+      };
+      lr += std::max(gls_rss(fc.kept) - gls_rss(fa.kept), 0.0);
+      dof += static_cast<int>(fa.kept.size() - fc.kept.size());
+    }
+    return dof > 0 ? chi2_sf(lr, dof) : -1.0;
+  };
   auto score_all = [&](const std::set<ParamId>& cur, const std::set<std::pair<int, int>>& cur_effects) {
     std::vector<CandidateScore> out;
     for (auto [s, e] : candidates) {
       if (cur_effects.count({static_cast<int>(s), static_cast<int>(e)})) continue;
       out.push_back(score_one(cur, s, e));
-      if (e == Effect::kTempHysteresis && hysteresis_runs >= 0 && hysteresis_runs < 3 && out.back().excitable) {
-        out.back().excitable = false;
-        out.back().not_excitable.push_back("the temperature history turns once: one offset between two stretches, as a drift gives");
-      }
     }
     int m = 0;
     for (const auto& c : out) m += c.excitable ? 1 : 0;
@@ -1459,6 +1504,10 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       if (c.significant && c.effect == model::effect_info(Effect::kTempRate).name) {
         c.heat_cool_p = heat_cool_p(cur, c.sensor == "accel" ? Sensor::kAccel : Sensor::kGyro);
         if (c.heat_cool_p >= 0 && c.heat_cool_p < 0.01) c.significant = false;
+      }
+      if (c.significant && hysteresis_runs >= 0 && hysteresis_runs < 3 && c.effect == model::effect_info(Effect::kTempHysteresis).name) {
+        c.one_turn_p = one_turn_p(cur, c.sensor == "accel" ? Sensor::kAccel : Sensor::kGyro);
+        if (c.one_turn_p >= level) c.significant = false;
       }
     }
     std::stable_sort(out.begin(), out.end(), [](const CandidateScore& x, const CandidateScore& y) {

@@ -186,6 +186,10 @@ struct CandidateScore {
   // temp_rate only: p-value of "the Ṫ coefficient is the same on heating and on cooling" (GLS Wald test);
   // −1 = not tested. Below 0.01 the candidate is not significant (a drift along one ramp, not a rate effect).
   double heat_cool_p = -1;
+  // temp_hysteresis on a temperature history that turns once only: p-value of the hysteresis under the largest
+  // bias wander the whole log supports without it (docs/diagnosis.md, "Thermal false picks"); −1 = not tested.
+  // At or above the selection level the candidate is not significant (one offset a drift can give).
+  double one_turn_p = -1;
 };
 
 struct StochasticScore {

@@ -180,6 +180,11 @@ nlohmann::json to_json(const DiagnosisResult& r) {
       if (c.heat_cool_p < 0.01)
         e["note"] = "the rate coefficient differs between heating and cooling: a drift along one ramp, not a temp_rate effect";
     }
+    if (c.one_turn_p >= 0) {
+      e["one_turn_p"] = num(c.one_turn_p);
+      if (!c.significant)  // tested only when it qualified otherwise: the one-turn test refused it
+        e["note"] = "the temperature turns once: one offset between two stretches, which the log's own bias wander explains as well";
+    }
     if (!c.implausible.empty()) {
       e["implausible"] = c.implausible;
       e["note"] = "magnitude outside the plausible range of docs/error-model.md: flagged, not a finding";

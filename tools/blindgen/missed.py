@@ -49,8 +49,8 @@ def main():
         for e in sorted(present - sel):
             i, r = rank.get(e, (None, {}))
             print('   missed %-28s snr %7.1f own %5.1f rank %s dBIC %s shrink%% %s sig %s impl %s' % (
-                e, snr.get(e, float('nan')), own_snr(d, t, e), i, '%.1f' % r['delta_bic'] if r else '-',
-                '%.1f' % r['heldout_shrink_pct'] if r else '-', r.get('significant'), r.get('implausible')))
+                e, snr.get(e, float('nan')), own_snr(d, t, e), i, '%.1f' % r['delta_bic'] if r.get('delta_bic') is not None else '-',
+                '%.1f' % r['heldout_shrink_pct'] if r.get('heldout_shrink_pct') is not None else '-', r.get('significant'), r.get('implausible')))
         if t.get('kind') in ('random', 'example'):
             for e in present:
                 z = own_snr(d, t, e)
