@@ -63,7 +63,9 @@ std::string esc(const std::string& s) {
 std::string unit_of(int a) { return a < 3 ? "m/s^2" : "rad/s"; }
 
 // What became of a ranked candidate by the end (the ranking's "significant" is the first step's).
-std::string outcome(const DiagnosisResult& r, const std::string& sensor, const std::string& effect) {
+std::string outcome(const DiagnosisResult& r, const CandidateScore& c) {
+  const std::string& sensor = c.sensor;
+  const std::string& effect = c.effect;
   const std::string key = sensor + "." + effect;
   for (const auto& st : r.selected)
     if (st.sensor == sensor && st.effect == effect) return st.from_reference_steps ? "selected (from the reference steps)" : "selected";
@@ -73,6 +75,9 @@ std::string outcome(const DiagnosisResult& r, const std::string& sensor, const s
     if (std::find(u.withdrawn.begin(), u.withdrawn.end(), key) != u.withdrawn.end())
       return "withdrawn: leaves " + u.axis + " unexplained";
   if (std::find(r.dropped.begin(), r.dropped.end(), key) != r.dropped.end()) return "dropped by a backward step";
+  // The refusals that a small p would otherwise leave unexplained to a reader of the table.
+  if (c.one_turn_p >= 0 && !c.significant) return "not selected: one temperature turn, a drift explains it";
+  if (c.heat_cool_p >= 0 && c.heat_cool_p < 0.01) return "not selected: differs between heating and cooling";
   return "not selected";
 }
 
@@ -161,7 +166,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
       e["heldout_shrink_pct"] = num(c.heldout_shrink_pct);
       e["significant"] = c.significant;
       e["magnitude"] = params_json(c.magnitude);
-      e["outcome"] = outcome(r, c.sensor, c.effect);
+      e["outcome"] = outcome(r, c);
       nlohmann::json md = nlohmann::json::array();
       for (std::size_t k = 0; k < c.min_detectable.size() && k < c.magnitude.size(); ++k)
         md.push_back({{"name", c.magnitude[k].name}, {"axis", c.magnitude[k].axis}, {"value", num(c.min_detectable[k])}});
@@ -299,8 +304,8 @@ std::string summary_text(const DiagnosisResult& r) {
     o << "  " << (c.significant ? "* " : "  ") << c.sensor << "." << c.effect << "  -log10p=" << fmt("%.1f", c.score)
       << "  dBIC=" << fmt("%.1f", c.delta_bic) << "  held-out shrink=" << fmt("%.0f", c.heldout_shrink_pct) << "%";
     if (!c.min_detectable.empty()) o << "  5sigma-detectable " << detectable_range(c);
-    if (c.significant) {
-      const std::string oc = outcome(r, c.sensor, c.effect);
+    if (c.significant || c.one_turn_p >= 0 || (c.heat_cool_p >= 0 && c.heat_cool_p < 0.01)) {
+      const std::string oc = outcome(r, c);
       if (oc != "selected") o << "  -> " << oc;
     }
     o << "\n";
@@ -550,7 +555,7 @@ std::string report_html(const DiagnosisResult& r) {
     if (c.excitable)
       h << "<td>" << fmt("%.2f", c.score) << "</td><td>" << fmt("%.3g", c.p_value) << "</td><td>" << fmt("%.1f", c.delta_bic)
         << "</td><td>" << fmt("%.0f", c.heldout_shrink_pct) << "</td><td>" << (c.significant ? "yes" : "no") << "</td><td>"
-        << esc(outcome(r, c.sensor, c.effect)) << "</td><td>" << esc(detectable_range(c)) << "</td></tr>";
+        << esc(outcome(r, c)) << "</td><td>" << esc(detectable_range(c)) << "</td></tr>";
     else
       h << "<td colspan='7'>not excited by this campaign: cannot be ruled out</td></tr>";
   }
