@@ -70,6 +70,15 @@ struct Pass0 {
   std::vector<double> Tbin;  // NaN where no temperature
   std::vector<double> Tdot;  // °C/s per bin
   std::array<double, kNumAxes> out_step{};  // output step of a quantised axis (0: continuous), noise_model.h
+  // Output limits (saturation) per axis: the extreme value an output sticks at while its reference lies beyond
+  // it; NaN = none found. Samples reading exactly that value are left out (run_pass1).
+  std::array<double, kNumAxes> clamp_hi, clamp_lo;
+  std::array<long long, kNumAxes> n_clamped{};
+  bool clamped(const Sample& s) const {
+    for (int a = 0; a < kNumAxes; ++a)
+      if (s.y[a] == clamp_hi[static_cast<std::size_t>(a)] || s.y[a] == clamp_lo[static_cast<std::size_t>(a)]) return true;
+    return false;
+  }
   double tdot_at(double t) const {
     if (Tdot.empty()) return 0.0;
     // Clamp in floating point: converting an out-of-range double to an integer is undefined.
@@ -91,6 +100,19 @@ Pass0 run_pass0(SampleSource& src, const Options& opt) {
   const std::size_t kStepDiffs = 400000;
   std::array<std::vector<double>, kNumAxes> diffs;
   std::array<double, kNumAxes> y_prev{}, y_max{};
+  // Saturation: the running extreme of each output and the samples that read exactly it (their count and the
+  // largest / smallest reference among them), and a straight line y = s·u + b through every other sample with a
+  // reference. A clamped output sits at its limit for whole dwells while the line puts the input past it; an
+  // unclamped one reaches its extreme a few times, and a coarse quantiser that repeats its top level at the
+  // highest rate dwell has the line at that level (a consumer gyro 2 % low in scale read 3.420 rad/s at a
+  // reference of 3.491 on the blind stoch-consumer-3: the reference alone cannot tell).
+  std::array<double, kNumAxes> hi, lo, hi_umax, lo_umin;
+  std::array<long long, kNumAxes> hi_n{}, lo_n{};
+  std::array<std::array<double, 5>, kNumAxes> line{}, line_hi{}, line_lo{};  // Σ1, Σu, Σy, Σuu, Σuy
+  hi.fill(-std::numeric_limits<double>::infinity());
+  lo.fill(std::numeric_limits<double>::infinity());
+  hi_umax.fill(-std::numeric_limits<double>::infinity());
+  lo_umin.fill(std::numeric_limits<double>::infinity());
   while (src.next(s)) {
     if (!std::isfinite(s.t_s)) throw DiagnosisError("sample " + std::to_string(p.n) + ": time is not finite");
     if (first) {
@@ -106,6 +128,23 @@ Pass0 run_pass0(SampleSource& src, const Options& opt) {
       if (p.n > 0 && diffs[ua].size() < kStepDiffs) diffs[ua].push_back(std::fabs(s.y[a] - y_prev[ua]));
       y_prev[ua] = s.y[a];
       if (std::isfinite(s.y[a])) y_max[ua] = std::max(y_max[ua], std::fabs(s.y[a]));
+      if (!std::isfinite(s.y[a])) continue;
+      if (!s.has_ref) continue;
+      const double u = a < 3 ? s.f[a] : s.w[a - 3];
+      const std::array<double, 5> term{1.0, u, s.y[a], u * u, u * s.y[a]};
+      for (int k = 0; k < 5; ++k) line[ua][static_cast<std::size_t>(k)] += term[static_cast<std::size_t>(k)];
+      if (s.y[a] > hi[ua]) hi[ua] = s.y[a], hi_n[ua] = 0, hi_umax[ua] = -std::numeric_limits<double>::infinity(), line_hi[ua] = {};
+      if (s.y[a] == hi[ua]) {
+        ++hi_n[ua];
+        hi_umax[ua] = std::max(hi_umax[ua], u);
+        for (int k = 0; k < 5; ++k) line_hi[ua][static_cast<std::size_t>(k)] += term[static_cast<std::size_t>(k)];
+      }
+      if (s.y[a] < lo[ua]) lo[ua] = s.y[a], lo_n[ua] = 0, lo_umin[ua] = std::numeric_limits<double>::infinity(), line_lo[ua] = {};
+      if (s.y[a] == lo[ua]) {
+        ++lo_n[ua];
+        lo_umin[ua] = std::min(lo_umin[ua], u);
+        for (int k = 0; k < 5; ++k) line_lo[ua][static_cast<std::size_t>(k)] += term[static_cast<std::size_t>(k)];
+      }
     }
     ++p.n;
     if (s.has_ref) ++p.n_ref;
@@ -129,6 +168,18 @@ Pass0 run_pass0(SampleSource& src, const Options& opt) {
   // Below 4e-7 of the largest value a difference is float resolution (f32 logs), not a step.
   for (int a = 0; a < kNumAxes; ++a)
     p.out_step[static_cast<std::size_t>(a)] = output_step(std::move(diffs[static_cast<std::size_t>(a)]), 4e-7 * y_max[static_cast<std::size_t>(a)]);
+  p.clamp_hi.fill(kNaN);
+  p.clamp_lo.fill(kNaN);
+  for (std::size_t a = 0; a < static_cast<std::size_t>(kNumAxes); ++a) {
+    std::array<double, 5> L = line[a];
+    for (int k = 0; k < 5; ++k) L[static_cast<std::size_t>(k)] -= line_hi[a][static_cast<std::size_t>(k)] + line_lo[a][static_cast<std::size_t>(k)];
+    const double det = L[0] * L[3] - L[1] * L[1];
+    if (!(L[0] > 100) || !(det > 0)) continue;
+    const double sc = (L[0] * L[4] - L[1] * L[2]) / det, b = (L[2] - sc * L[1]) / L[0];
+    // Past the limit by more than 1 % of it: the line's output at the most extreme reference that read it.
+    if (hi_n[a] >= 10 && hi[a] > 0 && sc * hi_umax[a] + b > 1.01 * hi[a]) p.clamp_hi[a] = hi[a], p.n_clamped[a] += hi_n[a];
+    if (lo_n[a] >= 10 && lo[a] < 0 && sc * lo_umin[a] + b < 1.01 * lo[a]) p.clamp_lo[a] = lo[a], p.n_clamped[a] += lo_n[a];
+  }
   if (!sum.empty()) {
     p.Tbin.assign(sum.size(), kNaN);
     for (std::size_t i = 0; i < sum.size(); ++i)
@@ -495,6 +546,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       // left out (ShiftedReference::near_step says why).
       bool at_step = false;
       for (int s = 0; s < 2; ++s) at_step |= src.near_step(cur.t_s - shift[s].at(in.t_s), shift[s].step_margin_s);
+      at_step |= p0.clamped(cur);  // a saturated output says only that the input is beyond its limit
       if (at_step) {
         // last_seg / last_had_ref keep the previous sample's: the next one still starts a new segment.
         prev = cur;
@@ -863,6 +915,21 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   if (p0.n_ref == 0)
     throw DiagnosisError("no sample carries a reference (f_ref/w_ref): use reference-free mode (--mode reference-free)");
 
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto ua = static_cast<std::size_t>(a);
+    if (p0.n_clamped[ua] == 0) continue;
+    std::string lim;
+    for (const double v : {p0.clamp_hi[ua], p0.clamp_lo[ua]}) {
+      if (!std::isfinite(v)) continue;
+      char b[40];
+      std::snprintf(b, sizeof b, "%s%.6g", lim.empty() ? "" : ", ", v);
+      lim += b;
+    }
+    char buf[300];
+    std::snprintf(buf, sizeof buf, "%s: %lld samples read the output's limit (%s) while the reference lies beyond it: saturated, left out",
+                  axis_name(a), p0.n_clamped[ua], lim.c_str());
+    R.warnings.push_back(buf);
+  }
   std::vector<ParamId> ids[2] = {sensor_params(Sensor::kAccel), sensor_params(Sensor::kGyro)};
   Pass1 p1 = run_pass1(src, p0, o, ids, true, shift);
   std::vector<Block>& blocks = p1.blocks;
