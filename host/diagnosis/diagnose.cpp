@@ -127,8 +127,8 @@ Pass0 run_pass0(SampleSource& src, const Options& opt) {
       const auto ua = static_cast<std::size_t>(a);
       if (p.n > 0 && diffs[ua].size() < kStepDiffs) diffs[ua].push_back(std::fabs(s.y[a] - y_prev[ua]));
       y_prev[ua] = s.y[a];
-      if (std::isfinite(s.y[a])) y_max[ua] = std::max(y_max[ua], std::fabs(s.y[a]));
       if (!std::isfinite(s.y[a])) continue;
+      y_max[ua] = std::max(y_max[ua], std::fabs(s.y[a]));
       if (!s.has_ref) continue;
       const double u = a < 3 ? s.f[a] : s.w[a - 3];
       const std::array<double, 5> term{1.0, u, s.y[a], u * u, u * s.y[a]};
@@ -1514,6 +1514,13 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // raise, summed over the axes. A drift that happens to differ between the two stretches is what the raise
   // describes, so its "hysteresis" falls to noise; a real hysteresis is one jump at the turn that a stationary
   // wander cannot make, and stays far above the level. Returns the p-value (−1: nothing to test).
+  // The likelier of the two whole-log raises (nullptr: neither improves the likelihood).
+  auto likelier = [](const std::array<WholeLogWander, 2>& lines) {
+    const WholeLogWander* pick = nullptr;
+    for (const auto& l : lines)
+      if (l.kind != WholeLogWander::kNone && (!pick || l.gain > pick->gain)) pick = &l;
+    return pick;
+  };
   auto one_turn_p = [&](const std::set<ParamId>& cur, Sensor s) {
     const std::vector<ParamId> eids = model::effect_params(s, Effect::kTempHysteresis);
     double lr = 0;
@@ -1530,9 +1537,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       StochasticModel sm = R.stoch[ua];
       sm.bank_sigma = std::max(sm.bank_sigma, sm.bank_sigma_lik);
       double rw0 = R.rw_prior_var[ua];
-      const WholeLogWander* pick = nullptr;
-      for (const auto& l : lines)
-        if (l.kind != WholeLogWander::kNone && (!pick || l.gain > pick->gain)) pick = &l;
+      const WholeLogWander* pick = likelier(lines);
       if (pick && pick->kind == WholeLogWander::kFlicker) sm.bank_sigma = sm.bank_sigma_lik = pick->bank_sigma;
       if (pick && pick->kind == WholeLogWander::kRandomWalk) {
         sm.K = pick->K;
@@ -2006,9 +2011,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
                        l.gain, l.max_abs_z, l.whiteness_p, l.autocorr_sq);
       // The likelier line, unless it fails a check and the other passes them (flicker and random walk differ
       // in shape beyond a quarter of the log, where the likelihood tells them apart least).
-      const WholeLogWander* pick = nullptr;
-      for (const auto& l : lines)
-        if (l.kind != WholeLogWander::kNone && (!pick || l.gain > pick->gain)) pick = &l;
+      const WholeLogWander* pick = likelier(lines);
       if (pick && *reason(*pick)) {
         const WholeLogWander& other = pick == &lines[0] ? lines[1] : lines[0];
         if (other.kind != WholeLogWander::kNone && !*reason(other) && other.gain > 3.84) pick = &other;
@@ -2027,7 +2030,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       // Within the held-out threshold, but what is left is neither a catalog effect nor stationary wander
       // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a
       // random walk, and the floor it raised hides the residual from the held-out χ².
-      const bool structured = (w.beyond_reason == "jump" && pick->max_abs_z > o.wander_max_z) ||
+      const bool structured = w.beyond_reason == "jump" ||
                               (w.beyond_reason == "periodic" && pick->autocorr_sq >= o.wander_unexplained_autocorr);
       if (structured && pick->gain >= o.wander_unexplained_gain && !over(R.gap_after, a)) {
         Unexplained u;
