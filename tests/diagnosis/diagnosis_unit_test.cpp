@@ -396,6 +396,10 @@ TEST(DiagnosisPipeline, SaturatedSamplesAreLeftOutNotCalledUnexplained) {
   const double limit = 1.2;
   // mode 0: clamped; 1: plain; 2: a coarse quantiser (step 2.5e-3) on an output 2 % low in scale, whose top
   // level repeats at the highest dwell with the reference 2 % beyond it (blind stoch-consumer-3): not a clamp.
+  // mode 3: clamped as 0, but the negative side only in one smooth overshoot to −1.23 in the middle of one
+  // −1.1 dwell (9 samples past the limit; a composite rate crossing the range between two steps on the simulate
+  // source's null-consumer-3, each sample 40σ off): too few to be a limit alone, the same limit as the
+  // positive side's.
   auto make_log = [&](int mode) {
     std::mt19937_64 rng(29);
     std::normal_distribution<double> n01;
@@ -410,11 +414,13 @@ TEST(DiagnosisPipeline, SaturatedSamplesAreLeftOutNotCalledUnexplained) {
           Sample smp = referenced_sample(static_cast<double>(log.size()) / 100.0, seg);
           for (int j = 0; j < 3; ++j) smp.f[j] = poses[k][static_cast<std::size_t>(j)], smp.w[j] = 0.0;
           smp.w[2] = wz;
+          if (mode == 3 && wz == -1.5)
+            smp.w[2] = -1.1 - (pass == 1 && k == 6 ? 0.13 * std::max(0.0, 1.0 - std::fabs(i - 300.0) / 20.0) : 0.0);
           for (int j = 0; j < 3; ++j) {
             smp.y[j] = smp.f[j] + 2e-3 * n01(rng);
             smp.y[3 + j] = smp.w[j] + 5e-4 * n01(rng);
           }
-          if (mode == 0) smp.y[5] = std::clamp(smp.y[5], -limit, limit);
+          if (mode == 0 || mode == 3) smp.y[5] = std::clamp(smp.y[5], -limit, limit);
           if (mode == 2) smp.y[5] = 2.5e-3 * std::round((0.98 * smp.w[2] + 5e-4 * n01(rng)) / 2.5e-3);
           log.push_back(smp);
         }
@@ -426,14 +432,15 @@ TEST(DiagnosisPipeline, SaturatedSamplesAreLeftOutNotCalledUnexplained) {
       if (w.find("saturated, left out") != std::string::npos) return w;
     return std::string();
   };
-  {
-    VectorSource src(make_log(0));
+  for (int mode : {0, 3}) {
+    VectorSource src(make_log(mode));
     const DiagnosisResult r = diagnose(src, basic_model(), Options{});
     const std::string w = saturation_warning(r);
     EXPECT_NE(w.find("gyro.z"), std::string::npos) << w;
-    EXPECT_TRUE(r.unexplained.empty());
-    EXPECT_TRUE(r.selected.empty());
-    EXPECT_LT(r.gap_after.chi2_dof[5], 3.0);
+    if (mode == 3) EXPECT_NE(w.find("(1.2, -1.2)"), std::string::npos) << "both sides of the one limit: " << w;
+    EXPECT_TRUE(r.unexplained.empty()) << mode;
+    EXPECT_TRUE(r.selected.empty()) << mode;
+    EXPECT_LT(r.gap_after.chi2_dof[5], 3.0) << mode;
   }
   for (int mode = 1; mode <= 2; ++mode) {
     VectorSource src(make_log(mode));
