@@ -77,7 +77,7 @@ class VectorSource : public SampleSource {
 struct Options {
   int folds = 5;                    // K of K-fold by segment
   std::string cv = "auto";          // "segment", "plateau" (leave-one-plateau-out) or "auto"
-  double alpha = 0.01;              // family-wise level; each candidate is tested at alpha / #candidates
+  double alpha = 0.001;             // family-wise level; each candidate is tested at alpha / #candidates (why 1e-3: docs/diagnosis.md)
   int max_steps = 20;               // forward steps (each followed by a backward pass)
   int max_timing_iterations = 8;    // re-evaluations of the reference at the estimated timing shift
   double min_shrink_pct = 2.0;      // a selected effect must shrink the held-out χ² excess by at least this (%)
