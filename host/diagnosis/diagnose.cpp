@@ -1106,29 +1106,11 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       std::vector<int> all(static_cast<std::size_t>(P));
       for (int i = 0; i < P; ++i) all[static_cast<std::size_t>(i)] = i;
       const Eigen::MatrixXd rows = design_rows(ad, all, 0);
-      Eigen::MatrixXd innov(B, P + 1);
-      Eigen::VectorXd S(B);
-      const std::vector<double>& tm = blk_t;
-      const std::vector<double>& du = blk_dur;
+      Eigen::MatrixXd innov;
+      Eigen::VectorXd S;
       const double rw0 = R.rw_prior_var[static_cast<std::size_t>(a)];
-      auto sums = [&](const std::vector<char>* missing, Eigen::MatrixXd& H, Eigen::VectorXd& g, double& q) {
-        whiten_segment(sm, tm, du, rows, rw0, innov, S, missing, &blk_seg);
-        H = Eigen::MatrixXd::Zero(P, P);
-        g = Eigen::VectorXd::Zero(P);
-        q = 0;
-        for (int b = 0; b < B; ++b) {
-          if (missing && (*missing)[static_cast<std::size_t>(b)]) continue;
-          const double w = 1.0 / S[b];
-          Eigen::VectorXd x = innov.row(b).tail(P).transpose();
-          H.selfadjointView<Eigen::Lower>().rankUpdate(x, w);
-          g += w * innov(b, 0) * x;
-          q += w * innov(b, 0) * innov(b, 0);
-        }
-        H = H.selfadjointView<Eigen::Lower>();
-      };
       estimator::NormalEquations& tot = ad.ne.total;
-      sums(nullptr, tot.info, tot.rhs, tot.cost);
-      tot.n_obs = B;
+      tot = gls_normal_equations(sm, blk_t, blk_dur, rows, rw0, &blk_seg, nullptr, nullptr, &innov, &S);
       for (int b = 0; b < B; ++b) {
         ad.z[b] = innov(b, 0);
         ad.X.row(b) = innov.row(b).tail(P);
@@ -1140,14 +1122,11 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       std::vector<char> missing(static_cast<std::size_t>(B));
       for (int k = 0; k < folds; ++k) {
         for (int b = 0; b < B; ++b) missing[static_cast<std::size_t>(b)] = blocks[static_cast<std::size_t>(b)].fold == k;
-        Eigen::MatrixXd Ht;
-        Eigen::VectorXd gt;
-        double qt = 0;
-        sums(&missing, Ht, gt, qt);
+        const estimator::NormalEquations train = gls_normal_equations(sm, blk_t, blk_dur, rows, rw0, &blk_seg, &missing);
         estimator::NormalEquations& fk = ad.ne.fold[static_cast<std::size_t>(k)];
-        fk.info = tot.info - Ht;
-        fk.rhs = tot.rhs - gt;
-        fk.cost = tot.cost - qt;
+        fk.info = tot.info - train.info;
+        fk.rhs = tot.rhs - train.rhs;
+        fk.cost = tot.cost - train.cost;
       }
     }
   };
@@ -1457,8 +1436,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       if (c_tr < 0) continue;
       const Fit f0 = fit_axis(ad, cols_for(ad, cur), -1);  // the admitted model columns (rank-checked)
       const int P = static_cast<int>(f0.kept.size());
-      Eigen::MatrixXd rows = design_rows(ad, f0.kept, 2), innov(B, P + 3);
-      Eigen::VectorXd S(B);
+      Eigen::MatrixXd rows = design_rows(ad, f0.kept, 2);
       double e_pos = 0, e_neg = 0;
       for (int b = 0; b < B; ++b) {
         const double x = ad.Xr(b, c_tr);
@@ -1468,22 +1446,17 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         e_neg += x < 0 ? x * x : 0.0;
       }
       if (!(e_pos > 0) || !(e_neg > 0)) continue;
-      whiten_segment(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S, nullptr, &blk_seg);
-      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(P + 2, P + 2);
-      Eigen::VectorXd g = Eigen::VectorXd::Zero(P + 2);
-      for (int b = 0; b < B; ++b) {
-        const Eigen::VectorXd x = innov.row(b).tail(P + 2).transpose();
-        H += x * x.transpose() / S[b];
-        g += x * innov(b, 0) / S[b];
-      }
-      const Eigen::VectorXd sc = H.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
-      const Eigen::MatrixXd Hs = sc.asDiagonal() * H * sc.asDiagonal();
-      Eigen::LDLT<Eigen::MatrixXd> ldlt(Hs);
-      if (ldlt.info() != Eigen::Success) continue;
-      const Eigen::VectorXd th = sc.asDiagonal() * ldlt.solve(sc.asDiagonal() * g);
-      const Eigen::MatrixXd cov = sc.asDiagonal() * ldlt.solve(Eigen::MatrixXd::Identity(P + 2, P + 2)) * sc.asDiagonal();
-      const double d = th[P] - th[P + 1];
-      const double v = cov(P, P) + cov(P + 1, P + 1) - 2.0 * cov(P, P + 1);
+      const estimator::NormalEquations ne =
+          gls_normal_equations(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], &blk_seg);
+      std::vector<int> cols(static_cast<std::size_t>(P + 2));
+      for (int i = 0; i < P + 2; ++i) cols[static_cast<std::size_t>(i)] = i;
+      const estimator::SubsetFit f = estimator::fit_subset(ne, cols);
+      // Positions of the heating and the cooling column among the kept ones (either dropped: not testable).
+      const auto ip = std::find(f.kept.begin(), f.kept.end(), P), in = std::find(f.kept.begin(), f.kept.end(), P + 1);
+      if (ip == f.kept.end() || in == f.kept.end()) continue;
+      const auto kp = static_cast<int>(ip - f.kept.begin()), kn = static_cast<int>(in - f.kept.begin());
+      const double d = f.theta[kp] - f.theta[kn];
+      const double v = f.cov(kp, kp) + f.cov(kn, kn) - 2.0 * f.cov(kp, kn);
       if (!(v > 0) || !std::isfinite(d)) continue;
       W += d * d / v;
       ++dof;
@@ -1553,13 +1526,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       // GLS residual sum of squares of [z | kept columns] under sm.
       auto gls_rss = [&](const std::vector<int>& kept) {
         const int P = static_cast<int>(kept.size());
-        const Eigen::MatrixXd rows = design_rows(ad, kept, 0);
-        Eigen::MatrixXd innov(B, P + 1);
-        Eigen::VectorXd S(B);
-        whiten_segment(sm, blk_t, blk_dur, rows, rw0, innov, S, nullptr, &blk_seg);
-        estimator::NormalEquations ne(P);
-        for (int b = 0; b < B; ++b) ne.add_row_lower(innov.row(b).tail(P).transpose(), innov(b, 0), 1.0 / S[b]);
-        ne.symmetrize();
+        const estimator::NormalEquations ne = gls_normal_equations(sm, blk_t, blk_dur, design_rows(ad, kept, 0), rw0, &blk_seg);
         std::vector<int> cols(static_cast<std::size_t>(P));
         for (int i = 0; i < P; ++i) cols[static_cast<std::size_t>(i)] = i;
         return estimator::fit_subset(ne, cols).rss;
@@ -1824,16 +1791,13 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     const double cmax = c.cwiseAbs().maxCoeff();
     if (!(cmax > 0)) return 0.0;
     c /= cmax;
-    Eigen::MatrixXd rows = design_rows(ad, f0.kept, 2), innov(B, P + 3);
-    Eigen::VectorXd S(B);
+    Eigen::MatrixXd rows = design_rows(ad, f0.kept, 2);
     rows.col(P + 1) = c.array().square().matrix();
     rows.col(P + 2) = c.array().cube().matrix();
-    whiten_segment(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], innov, S, nullptr, &blk_seg);
     // GLS fits with and without the two columns, on the shared estimator core (its priority Cholesky drops
     // an augmentation column the model's columns already span: it then explains nothing new).
-    estimator::NormalEquations ne(P + 2);
-    for (int b = 0; b < B; ++b) ne.add_row_lower(innov.row(b).tail(P + 2).transpose(), innov(b, 0), 1.0 / S[b]);
-    ne.symmetrize();
+    const estimator::NormalEquations ne =
+        gls_normal_equations(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], &blk_seg);
     std::vector<int> cols(static_cast<std::size_t>(P + 2));
     for (int i = 0; i < P + 2; ++i) cols[static_cast<std::size_t>(i)] = i;
     const double q0 = estimator::fit_subset(ne, std::vector<int>(cols.begin(), cols.begin() + P)).rss;

@@ -360,6 +360,31 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
 }
 
 
+estimator::NormalEquations gls_normal_equations(const StochasticModel& m, const std::vector<double>& t_s,
+                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
+                                                double rw_prior_var, const std::vector<int>* seg_of,
+                                                const std::vector<char>* missing, double* sum_log_S,
+                                                Eigen::MatrixXd* innov_out, Eigen::VectorXd* S_out) {
+  const int n = static_cast<int>(rows.rows()), P = static_cast<int>(rows.cols()) - 1;
+  Eigen::MatrixXd innov_local;
+  Eigen::VectorXd S_local;
+  Eigen::MatrixXd& innov = innov_out ? *innov_out : innov_local;
+  Eigen::VectorXd& S = S_out ? *S_out : S_local;
+  innov.resize(n, P + 1);
+  S.resize(n);
+  whiten_segment(m, t_s, dur_s, rows, rw_prior_var, innov, S, missing, seg_of);
+  estimator::NormalEquations ne(P);
+  double logS = 0;
+  for (int i = 0; i < n; ++i) {
+    if (missing && (*missing)[static_cast<std::size_t>(i)]) continue;
+    ne.add_row_lower(innov.row(i).tail(P).transpose(), innov(i, 0), 1.0 / S[i]);
+    logS += std::log(S[i]);
+  }
+  ne.symmetrize();
+  if (sum_log_S) *sum_log_S = logS;
+  return ne;
+}
+
 std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
                                                double rw_prior_var, double duration_s, double ratio_max,
@@ -372,14 +397,8 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
   // −2 log L_REML: Σ log S + χ² of the GLS fit + log det of the columns' information.
   double max_abs_z = 0, whiteness_p = 1, autocorr_sq = 0;
   auto m2ll = [&](const StochasticModel& mm, double rw0) {
-    whiten_segment(mm, t_s, dur_s, rows, rw0, innov, S, nullptr, seg_of);
-    estimator::NormalEquations ne(P);
     double logS = 0;
-    for (int i = 0; i < n; ++i) {
-      ne.add_row_lower(innov.row(i).tail(P).transpose(), innov(i, 0), 1.0 / S[i]);
-      logS += std::log(S[i]);
-    }
-    ne.symmetrize();
+    const estimator::NormalEquations ne = gls_normal_equations(mm, t_s, dur_s, rows, rw0, seg_of, nullptr, &logS, &innov, &S);
     // The columns' GLS fit on the shared estimator core; its kept columns' information is cov⁻¹.
     std::vector<int> cols(static_cast<std::size_t>(P));
     for (int i = 0; i < P; ++i) cols[static_cast<std::size_t>(i)] = i;

@@ -20,6 +20,7 @@
 #include <Eigen/Core>
 
 #include "host/diagnosis/stats.h"
+#include "host/estimator/estimator.h"
 
 namespace imuforge::diagnosis {
 
@@ -144,6 +145,18 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
                     const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, Eigen::Ref<Eigen::MatrixXd> innov,
                     Eigen::Ref<Eigen::VectorXd> S, const std::vector<char>* missing = nullptr,
                     const std::vector<int>* seg_of = nullptr);
+
+// The GLS normal equations of rows = [z | x] under m, on the shared estimator core: the innovations
+// whiten_segment gives, each block weighted by 1/S; blocks marked in `missing` are left out as they are there.
+// Every GLS fit of the diagnosis (the selection's per-fold sums, the tests of one effect under a raised wander,
+// heating against cooling, the form check, the whole-log likelihood) goes through here, so a change to the
+// likelihood is one change. Optional outputs: Σ log S over the blocks used (for −2 log L), and the innovations
+// and their variances themselves. O(n · (P² + P · states)).
+estimator::NormalEquations gls_normal_equations(const StochasticModel& m, const std::vector<double>& t_s,
+                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
+                                                double rw_prior_var, const std::vector<int>* seg_of,
+                                                const std::vector<char>* missing = nullptr, double* sum_log_S = nullptr,
+                                                Eigen::MatrixXd* innov_out = nullptr, Eigen::VectorXd* S_out = nullptr);
 
 // Covariance of two block means of one segment under the model (mid times ti, tj, durations di, dj);
 // i == j includes the white part. Used for the variance of a segment mean.
