@@ -34,6 +34,35 @@ bool reference_step(const R* p, const R& a, const R& b, const R* n) {
   return false;
 }
 
+// A kink in the reference within rows a..b: its slope changes there, or it steps by less than the rows around
+// it move. A rate table that starts or stops accelerating does both: ω̇ jumps (a kink in the rate) and, for a
+// sensor off the axis, the tangential specific force ω̇ × r steps, while gravity turning in the body moves the
+// neighbouring rows by as much (0.34 m/s² per row at 200 °/s and 100 Hz), so reference_step does not see it.
+// Interpolated at a shifted time, the reference reads across it: off by δ/h of a step, |Δ²|·δ/h at a kink. On
+// the simulate source's random-19 (0.5 ms latency and a clock drifting to 12 ms) that left the accelerometer at
+// held-out χ²/dof 11–13, "unexplained", with per-axis latencies 0.508–0.540 ms for a true 0.517.
+// Either way the second difference falls on the two rows around it (+J, −J for a step; split by where in the
+// interval a kink lies), so the test sums |Δ²| at a and at b and compares that with |Δ²| one row further out on
+// each side (pp, p, a and b, n, nn): smooth motion (a sine, gravity turning) changes Δ² little from row to row
+// (ratio about 2), a kink or a step stands alone. Thresholds: 0.02 rad/s or 0.05 m/s², and four times the
+// neighbours. Null pointers at the ends of the data: no kink there.
+template <class R>
+bool reference_kink(const R* pp, const R* p, const R& a, const R& b, const R* n, const R* nn) {
+  if (!p || !n) return false;
+  for (int k = 0; k < 3; ++k) {
+    auto second = [k](const R& x, const R& y, const R& z, bool rate) {
+      return rate ? (z.w[k] - y.w[k]) - (y.w[k] - x.w[k]) : (z.f[k] - y.f[k]) - (y.f[k] - x.f[k]);
+    };
+    for (const bool rate : {true, false}) {
+      const double thr = rate ? 0.02 : 0.05;
+      const double s = std::fabs(second(*p, a, b, rate)) + std::fabs(second(a, b, *n, rate));
+      const double out = std::max(pp ? std::fabs(second(*pp, *p, a, rate)) : 0.0, nn ? std::fabs(second(b, *n, *nn, rate)) : 0.0);
+      if (s > thr && s > 4.0 * out) return true;
+    }
+  }
+  return false;
+}
+
 // Lag probe at instantaneous steps of the reference (docs/diagnosis.md § timing). Once a clock error has
 // accumulated to more than a sample interval, the first samples after a step read the old pose, and a
 // linearised timing term cannot see it: the derivative is zero on both sides of a step and the samples next
