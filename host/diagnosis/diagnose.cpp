@@ -390,11 +390,14 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   const TimeShift none[2];
   if (!shift) shift = none;
   const double dur_all = p0.t_last - p0.t_first;
+  // The window holds every reference row near_step reads at a shifted time: ±(h + step margin) around it, the
+  // row beyond, and the two rows further out on each side that reference_kink compares with (at the window's
+  // edge a missing row would make the same row pair a kink or not depending on where the window stands).
   double ahead = 2.0 / p0.fs, back = 2.0 / p0.fs;
   for (int s = 0; s < 2; ++s)
     for (double tt : {0.0, dur_all}) {
-      ahead = std::max(ahead, -shift[s].at(tt) + 4.0 / p0.fs);
-      back = std::max(back, shift[s].at(tt) + 4.0 / p0.fs);
+      ahead = std::max(ahead, -shift[s].at(tt) + shift[s].step_margin_s + 6.0 / p0.fs);
+      back = std::max(back, shift[s].at(tt) + shift[s].step_margin_s + 6.0 / p0.fs);
     }
   ShiftedReference src(src_in, ahead, back, p0.fs);
   Pass1 out;
@@ -1464,7 +1467,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       const estimator::NormalEquations ne =
           gls_normal_equations(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], &blk_seg);
       std::vector<int> cols(static_cast<std::size_t>(P + 2));
-      for (int i = 0; i < P + 2; ++i) cols[static_cast<std::size_t>(i)] = i;
+      std::iota(cols.begin(), cols.end(), 0);
       const estimator::SubsetFit f = estimator::fit_subset(ne, cols);
       // Positions of the heating and the cooling column among the kept ones (either dropped: not testable).
       const auto ip = std::find(f.kept.begin(), f.kept.end(), P), in = std::find(f.kept.begin(), f.kept.end(), P + 1);
@@ -1529,21 +1532,13 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       const std::array<WholeLogWander, 2> lines =
           whole_log_wander(R.stoch[ua], blk_t, blk_dur, design_rows(ad, fc.kept, 0), R.rw_prior_var[ua], R.duration_s,
                            std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg);
-      StochasticModel sm = R.stoch[ua];
-      sm.bank_sigma = std::max(sm.bank_sigma, sm.bank_sigma_lik);
-      double rw0 = R.rw_prior_var[ua];
-      const WholeLogWander* pick = likelier(lines);
-      if (pick && pick->kind == WholeLogWander::kFlicker) sm.bank_sigma = sm.bank_sigma_lik = pick->bank_sigma;
-      if (pick && pick->kind == WholeLogWander::kRandomWalk) {
-        sm.K = pick->K;
-        rw0 = pick->K * pick->K * R.duration_s / 6.0;
-      }
+      double rw0 = 0;
+      const StochasticModel sm = with_wander(R.stoch[ua], likelier(lines), R.duration_s, R.rw_prior_var[ua], rw0);
       // GLS residual sum of squares of [z | kept columns] under sm.
       auto gls_rss = [&](const std::vector<int>& kept) {
-        const int P = static_cast<int>(kept.size());
         const estimator::NormalEquations ne = gls_normal_equations(sm, blk_t, blk_dur, design_rows(ad, kept, 0), rw0, &blk_seg);
-        std::vector<int> cols(static_cast<std::size_t>(P));
-        for (int i = 0; i < P; ++i) cols[static_cast<std::size_t>(i)] = i;
+        std::vector<int> cols(kept.size());
+        std::iota(cols.begin(), cols.end(), 0);
         return estimator::fit_subset(ne, cols).rss;
       };
       lr += std::max(gls_rss(fc.kept) - gls_rss(fa.kept), 0.0);
@@ -1814,7 +1809,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     const estimator::NormalEquations ne =
         gls_normal_equations(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], &blk_seg);
     std::vector<int> cols(static_cast<std::size_t>(P + 2));
-    for (int i = 0; i < P + 2; ++i) cols[static_cast<std::size_t>(i)] = i;
+    std::iota(cols.begin(), cols.end(), 0);
     const double q0 = estimator::fit_subset(ne, std::vector<int>(cols.begin(), cols.begin() + P)).rss;
     const double q1 = estimator::fit_subset(ne, cols).rss;
     excess = q0 - static_cast<double>(B - P);

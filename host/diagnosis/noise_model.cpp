@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <numeric>
 
 namespace imuforge::diagnosis {
 
@@ -385,6 +386,19 @@ estimator::NormalEquations gls_normal_equations(const StochasticModel& m, const 
   return ne;
 }
 
+StochasticModel with_wander(const StochasticModel& m, const WholeLogWander* w, double duration_s, double rw_prior_var,
+                            double& rw_prior_var_out) {
+  StochasticModel out = m;
+  out.bank_sigma = std::max(m.bank_sigma, m.bank_sigma_lik);  // the likelihood's own level
+  rw_prior_var_out = rw_prior_var;
+  if (w && w->kind == WholeLogWander::kFlicker) out.bank_sigma = out.bank_sigma_lik = w->bank_sigma;
+  if (w && w->kind == WholeLogWander::kRandomWalk) {
+    out.K = w->K;
+    rw_prior_var_out = w->K * w->K * duration_s / 6.0;
+  }
+  return out;
+}
+
 std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
                                                double rw_prior_var, double duration_s, double ratio_max,
@@ -401,7 +415,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
     const estimator::NormalEquations ne = gls_normal_equations(mm, t_s, dur_s, rows, rw0, seg_of, nullptr, &logS, &innov, &S);
     // The columns' GLS fit on the shared estimator core; its kept columns' information is cov⁻¹.
     std::vector<int> cols(static_cast<std::size_t>(P));
-    for (int i = 0; i < P; ++i) cols[static_cast<std::size_t>(i)] = i;
+    std::iota(cols.begin(), cols.end(), 0);
     const estimator::SubsetFit f = estimator::fit_subset(ne, cols);
     double logdet = 0;
     if (!f.kept.empty()) {
@@ -434,8 +448,8 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
     }
     return logS + f.rss + logdet;
   };
-  StochasticModel m0 = m;
-  m0.bank_sigma = std::max(m.bank_sigma, m.bank_sigma_lik);  // the likelihood's own level
+  double rw_unused = 0;
+  const StochasticModel m0 = with_wander(m, nullptr, duration_s, rw_prior_var, rw_unused);
   const double tau_long = 0.25 * duration_s;
   const double avar0 = m0.avar(tau_long);
   if (!(avar0 > 0)) return out;
@@ -443,8 +457,10 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
   if (!std::isfinite(base)) return out;
   const double step = std::pow(2.0, 0.25);
   // Each line's maximiser, then its residual checks (jump, whiteness) under it.
-  auto finish = [&](WholeLogWander& w, double line_best, const StochasticModel& mm, double rw0) {
+  auto finish = [&](WholeLogWander& w, double line_best) {
     w.gain = base - line_best;
+    double rw0 = 0;
+    const StochasticModel mm = with_wander(m, &w, duration_s, rw_prior_var, rw0);
     m2ll(mm, rw0);
     w.max_abs_z = max_abs_z;
     w.whiteness_p = whiteness_p;
@@ -471,10 +487,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
         break;  // far past this line's maximum (the likelihood is unimodal along one level)
       }
     }
-    if (w.kind != WholeLogWander::kNone) {
-      mf.bank_sigma = mf.bank_sigma_lik = w.bank_sigma;
-      finish(w, line_best, mf, rw_prior_var);
-    }
+    if (w.kind != WholeLogWander::kNone) finish(w, line_best);
   }
   // Random walk: K raised from its fit, or from where it adds 1 % to the Allan variance at D/4.
   {
@@ -497,10 +510,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
         break;
       }
     }
-    if (w.kind != WholeLogWander::kNone) {
-      mk.K = w.K;
-      finish(w, line_best, mk, w.K * w.K * duration_s / 6.0);
-    }
+    if (w.kind != WholeLogWander::kNone) finish(w, line_best);
   }
   return out;
 }

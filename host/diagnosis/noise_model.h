@@ -104,6 +104,12 @@ struct WholeLogWander {
   // size beside the p-value (which grows with the number of blocks for any fixed mismatch of the noise shape).
   double autocorr_sq = 0;
 };
+// m with a whole-log raise applied: w's maximiser (flicker bank σ or random-walk K), or with w null or kNone the
+// likelihood's own level (the flicker bank at the larger of its point and upper σ). rw_prior_var_out receives
+// the random walk's prior variance that goes with it (K²·D/6 for a raised walk, else rw_prior_var). The one rule
+// for the search below and for a likelihood re-run under the raise (diagnose.cpp: one-turn hysteresis). O(1).
+StochasticModel with_wander(const StochasticModel& m, const WholeLogWander* w, double duration_s, double rw_prior_var,
+                            double& rw_prior_var_out);
 std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
                                                double rw_prior_var, double duration_s, double ratio_max,
