@@ -29,6 +29,13 @@
 namespace imuforge::diagnosis {
 
 constexpr int kNumAxes = 6;  // ax ay az gx gy gz
+
+// Six NaNs: "not given" / "not computed" per axis.
+inline std::array<double, kNumAxes> nan_axes() {
+  std::array<double, kNumAxes> a;
+  a.fill(std::numeric_limits<double>::quiet_NaN());
+  return a;
+}
 const char* axis_name(int a);  // "accel.x" … "gyro.z"
 
 class DiagnosisError : public std::runtime_error {
@@ -116,17 +123,13 @@ struct Options {
   // Candidate effects; empty = every deterministic catalog effect not in the base model.
   std::vector<std::pair<model::Sensor, model::Effect>> candidates;
   // Claimed white-noise density per axis (unit/√Hz) for the Allan comparison; NaN = not claimed.
-  std::array<double, kNumAxes> claimed_N{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
-                                         std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
-                                         std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  std::array<double, kNumAxes> claimed_N = nan_axes();
   // Whole-log wander (docs/diagnosis.md § 2): per axis, a flicker B or a rate random walk K that the likelihood
   // and the held-out variances carry instead of the static dwells' (NaN = the dwells'). Set by diagnose()
   // itself when the whole log's REML level exceeds the dwells' significantly but by no more than
   // wander_max_factor (Allan deviation at a quarter of the log).
-  std::array<double, kNumAxes> wander_B{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
-                                        std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
-                                        std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
-  std::array<double, kNumAxes> wander_K = wander_B;
+  std::array<double, kNumAxes> wander_B = nan_axes();
+  std::array<double, kNumAxes> wander_K = nan_axes();
   bool whole_log_wander = true;     // estimate it and adopt it (off: the static dwells' level only)
   double wander_max_factor = 4.0;   // a whole-log wander above this × the dwells' is not wander: a deterministic
                                     // residual (out-of-catalog) that must stay visible as such
@@ -165,6 +168,10 @@ struct Gap {
   std::array<double, kNumAxes> rms{};      // held-out block-level RMS
   std::array<double, kNumAxes> floor{};    // modelled floor
   std::array<double, kNumAxes> chi2_dof{}; // held-out χ² / blocks
+  // χ² / dof of the model's GLS fit on all blocks under the adopted whole-log wander (NaN: none adopted on that
+  // axis). Where finite, an axis is unexplained only when this exceeds the threshold too (diagnose.cpp
+  // gap_verdict says why).
+  std::array<double, kNumAxes> chi2_dof_wander = nan_axes();
 };
 
 struct CandidateScore {
@@ -190,6 +197,10 @@ struct CandidateScore {
   // bias wander the whole log supports without it (docs/diagnosis.md, "Thermal false picks"); −1 = not tested.
   // At or above the selection level the candidate is not significant (one offset a drift can give).
   double one_turn_p = -1;
+  // A first-step candidate past the level in-sample with a held-out shrink ≤ 0, not selected: its p-value and
+  // held-out shrink against the FINAL model (−1 / NaN: not such a candidate). diagnose.cpp says why.
+  double final_p = -1;
+  double final_shrink_pct = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct StochasticScore {
@@ -268,6 +279,7 @@ struct DiagnosisResult {
     std::string kind;                 // "", "flicker", "random_walk"
     double value = 0;                 // flicker B or K
     double ratio = 1;                 // Allan deviation at D/4: whole log / dwells
+    double limit_ratio = 1;           // the same against the likelihood's level: what the size limit judges
     double gain = 0;                  // −2 log L gain over the dwells' level
     double max_abs_z = 0;             // largest standardised innovation under it (noise_model.h)
     double whiteness_p = 1;           // Ljung–Box p of those innovations

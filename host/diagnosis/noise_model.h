@@ -92,7 +92,10 @@ struct WholeLogWander {
   enum Kind { kNone, kFlicker, kRandomWalk } kind = kNone;
   double bank_sigma = 0, B = 0;  // kFlicker: the maximiser and its flicker B
   double K = 0;                  // kRandomWalk: the maximiser
-  double ratio = 1;              // Allan deviation at D/4: raised model / the model's own
+  double ratio = 1;              // Allan deviation at D/4: raised model / the level the dwells show
+  // The same against the likelihood's level (the flicker's upper limit where the dwells show none, else equal to
+  // ratio): what the size limits are judged on (diagnose.h Options::wander_max_factor).
+  double limit_ratio = 1;
   double gain = 0;               // −2 log L(model's own level) − (−2 log L(maximiser)) ≥ 0
   // Largest standardised innovation of the GLS residual under the maximiser: Gaussian wander keeps it near
   // √(2 ln n); one jump (a bias step) that a random walk "explains" on average stands out by tens.
@@ -105,7 +108,8 @@ struct WholeLogWander {
   double autocorr_sq = 0;
 };
 // m with a whole-log raise applied: w's maximiser (flicker bank σ or random-walk K), or with w null or kNone the
-// likelihood's own level (the flicker bank at the larger of its point and upper σ). rw_prior_var_out receives
+// likelihood's own level (the flicker bank at the larger of its point and upper σ; a random-walk raise on a model
+// whose point flicker is 0 carries no flicker, as the search started there). rw_prior_var_out receives
 // the random walk's prior variance that goes with it (K²·D/6 for a raised walk, else rw_prior_var). The one rule
 // for the search below and for a likelihood re-run under the raise (diagnose.cpp: one-turn hysteresis). O(1).
 StochasticModel with_wander(const StochasticModel& m, const WholeLogWander* w, double duration_s, double rw_prior_var,

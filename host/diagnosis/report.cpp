@@ -19,6 +19,7 @@ nlohmann::json gap_json(const Gap& g, const Gap* before) {
     const auto u = static_cast<std::size_t>(a);
     nlohmann::json e = {{"gap", num(g.gap[u])}, {"heldout_rms", num(g.rms[u])}, {"noise_floor", num(g.floor[u])},
                         {"heldout_chi2_dof", num(g.chi2_dof[u])}};
+    if (std::isfinite(g.chi2_dof_wander[u])) e["gls_chi2_dof_under_wander"] = g.chi2_dof_wander[u];
     if (before) {
       const double g0 = before->gap[u];
       e["shrink_pct"] = g0 > 0 ? num(100.0 * (1.0 - std::max(g.gap[u], 0.0) / g0)) : nlohmann::json(nullptr);
@@ -78,6 +79,17 @@ std::string outcome(const DiagnosisResult& r, const CandidateScore& c) {
   // The refusals that a small p would otherwise leave unexplained to a reader of the table.
   if (c.one_turn_p >= 0 && !c.significant) return "not selected: one temperature turn, a drift explains it";
   if (c.heat_cool_p >= 0 && c.heat_cool_p < 0.01) return "not selected: differs between heating and cooling";
+  if (c.final_p >= 0) {
+    // In-sample gain without held-out gain at the first step, scored again against the final model (diagnose.cpp).
+    int m0 = 0;
+    for (const auto& x : r.ranking) m0 += x.excitable ? 1 : 0;
+    const double level0 = r.alpha / std::max(1, m0);
+    if (c.final_p >= level0)
+      return "not selected: in-sample gain only, the signal of effects selected later (against the final model p " +
+             fmt("%.2g", c.final_p) + ", level " + fmt("%.2g", level0) + ")";
+    return "not selected: in-sample gain only, none on withheld segments (held-out shrink " + fmt("%.0f", c.final_shrink_pct) +
+           " % against the final model): its columns extrapolate between folds";
+  }
   return "not selected";
 }
 
@@ -102,7 +114,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       // Why it is not read as noise either (the whole log's wander, diagnose.h Options::wander_*).
       const auto& w = r.wander[u];
       if (w.beyond_limit && w.beyond_reason == "too_large")
-        line += "; as noise it would take a bias wander " + fmt("%.2g", w.ratio) + "x what the static dwells show";
+        line += "; as noise it would take a bias wander " + fmt("%.2g", w.limit_ratio) + "x what the static dwells show";
       else if (w.beyond_limit && w.beyond_reason == "jump")
         line += "; not a stationary bias wander either: one jump of " + fmt("%.1f", w.max_abs_z) + " sigma";
       else if (w.beyond_limit && w.beyond_reason == "periodic")
@@ -120,7 +132,13 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
         line += "explained by";
         for (std::size_t i = 0; i < by.size(); ++i) line += (i ? ", " : " ") + by[i];
       }
-      if (std::isfinite(r.gap_after.chi2_dof[u])) line += " (held-out chi2/dof " + fmt("%.3g", r.gap_after.chi2_dof[u]) + ")";
+      if (std::isfinite(r.gap_after.chi2_dof[u])) {
+        line += " (held-out chi2/dof " + fmt("%.3g", r.gap_after.chi2_dof[u]);
+        // What the claim is judged on where the whole log's wander is adopted (diagnose.h Gap::chi2_dof_wander).
+        if (std::isfinite(r.gap_after.chi2_dof_wander[u]))
+          line += "; " + fmt("%.3g", r.gap_after.chi2_dof_wander[u]) + " in a GLS fit under the whole-log wander";
+        line += ")";
+      }
     }
     const auto& m = r.stoch[u];
     if (m.gm_sigma > 0) line += "; drift: Gauss-Markov sigma " + fmt("%.3g", m.gm_sigma) + ", tau " + fmt("%.3g", m.gm_tau_s) + " s";
@@ -184,6 +202,10 @@ nlohmann::json to_json(const DiagnosisResult& r) {
       e["heating_cooling_p"] = num(c.heat_cool_p);
       if (c.heat_cool_p < 0.01)
         e["note"] = "the rate coefficient differs between heating and cooling: a drift along one ramp, not a temp_rate effect";
+    }
+    if (c.final_p >= 0) {
+      e["final_model_p"] = num(c.final_p);
+      e["final_model_heldout_shrink_pct"] = num(c.final_shrink_pct);
     }
     if (c.one_turn_p >= 0) {
       e["one_turn_p"] = num(c.one_turn_p);
@@ -259,7 +281,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"gm_tau_s", num(m.gm_tau_s)}, {"flicker_B", num(m.flicker_B)}, {"flicker_B_upper", num(m.flicker_B_upper)},
                                                  {"K", num(m.K)}}},
                            {"whole_log_wander", {{"kind", r.wander[u].kind}, {"value", num(r.wander[u].value)},
-                                                 {"ratio", num(r.wander[u].ratio)}, {"gain", num(r.wander[u].gain)}, {"max_abs_z", num(r.wander[u].max_abs_z)}, {"whiteness_p", num(r.wander[u].whiteness_p)},
+                                                 {"ratio", num(r.wander[u].ratio)}, {"limit_ratio", num(r.wander[u].limit_ratio)}, {"gain", num(r.wander[u].gain)}, {"max_abs_z", num(r.wander[u].max_abs_z)}, {"whiteness_p", num(r.wander[u].whiteness_p)},
                                                  {"autocorr_sq", num(r.wander[u].autocorr_sq)},
                                                  {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
@@ -304,7 +326,7 @@ std::string summary_text(const DiagnosisResult& r) {
     o << "  " << (c.significant ? "* " : "  ") << c.sensor << "." << c.effect << "  -log10p=" << fmt("%.1f", c.score)
       << "  dBIC=" << fmt("%.1f", c.delta_bic) << "  held-out shrink=" << fmt("%.0f", c.heldout_shrink_pct) << "%";
     if (!c.min_detectable.empty()) o << "  5sigma-detectable " << detectable_range(c);
-    if (c.significant || c.one_turn_p >= 0 || (c.heat_cool_p >= 0 && c.heat_cool_p < 0.01)) {
+    if (c.significant || c.one_turn_p >= 0 || c.final_p >= 0 || (c.heat_cool_p >= 0 && c.heat_cool_p < 0.01)) {
       const std::string oc = outcome(r, c);
       if (oc != "selected") o << "  -> " << oc;
     }

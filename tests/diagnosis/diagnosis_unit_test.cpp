@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <map>
 #include <random>
 #include <set>
@@ -385,6 +386,174 @@ TEST(DiagnosisPipeline, PeriodicBiasBelowTheHeldOutThresholdIsStillNamed) {
     } else {
       EXPECT_TRUE(r.unexplained.empty()) << (kind == 2 ? "a random walk is noise" : "white noise");
     }
+  }
+}
+
+// A gyro bias that is a random walk, the whole log 6× longer than what its 8 s dwells show: the whole-log wander
+// is adopted, and the axis is noise. The held-out χ²/dof on marginal segment variances is not a fair judge of that:
+// the segments share one slow bias, so Σ r²/σ² has a few effective degrees of freedom and exceeds 3 per segment
+// on 3 of these 12 seeds (1, 4, 6: 4.6, 5.3, 4.8), and each was named unexplained beside its adopted wander
+// (blind suites: 6 of ~100 stochastic-only logs). The claim is now also judged on the GLS fit under the adopted
+// wander (Gap::chi2_dof_wander). Control: the same walk plus a bias ∝ f_x³ (no catalog effect has it) is not
+// adopted as wander and stays unexplained.
+TEST(DiagnosisPipeline, ARandomWalkBiasIsNotCalledUnexplained) {
+  auto make_log = [](unsigned seed, double cubic_rad_s) {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> n01;
+    double rw = 0.0;
+    return static_pose_log(two_axis_tilts(), 6, 8.0, [&](int, const Pose& f, double* y) {
+      rw += 1e-5 * std::sqrt(0.01) * n01(rng);  // K = 1e-5 rad/s/√s
+      const double fx = f[0] / 9.80665;
+      for (int j = 0; j < 3; ++j) {
+        y[j] = f[static_cast<std::size_t>(j)] + 2e-3 * n01(rng);
+        y[3 + j] = (j == 1 ? rw + cubic_rad_s * fx * fx * fx : 0.0) + 5e-4 * n01(rng);
+      }
+    });
+  };
+  const Options o;
+  for (unsigned seed : {1u, 4u, 6u}) {
+    VectorSource src(make_log(seed, 0.0));
+    const DiagnosisResult r = diagnose(src, basic_model(), o);
+    ASSERT_TRUE(r.wander[4].adopted) << seed;
+    EXPECT_GT(r.gap_after.chi2_dof[4], o.unexplained_chi2_dof) << seed << ": the marginal held-out chi2 (else not exercised)";
+    EXPECT_LT(r.gap_after.chi2_dof_wander[4], 1.5) << seed << ": measured 0.78-0.92";
+    EXPECT_TRUE(r.unexplained.empty()) << seed;
+    EXPECT_TRUE(r.selected.empty()) << seed;
+  }
+  VectorSource src(make_log(4u, 3e-4));
+  const DiagnosisResult r = diagnose(src, basic_model(), o);
+  EXPECT_FALSE(r.wander[4].adopted);
+  ASSERT_EQ(r.unexplained.size(), 1u);
+  EXPECT_EQ(r.unexplained[0].axis, "gyro.y");
+  EXPECT_GT(r.unexplained[0].chi2_dof_after, 30.0) << "measured 292";
+}
+
+// The selection judges on the dwells' noise. Where the whole log shows a larger bias wander (adopted), an effect
+// it selected must stay significant under that wander, with the re-tested effects as the family (blind suites:
+// a tactical accelerometer with a 300 s Gauss-Markov bias took accel.cross_coupling at p 3e-5 on the dwells'
+// noise, p 0.014 under its wander). Static tilts, temperature soaks and ramps, accel.x offset c·Ṫ (temp_rate).
+// The wander is given through Options::wander_K, the level diagnose() adopts after its first pass.
+TEST(DiagnosisPipeline, AnEffectMustStaySignificantUnderTheAdoptedWander) {
+  BaseModel base = basic_model();
+  for (auto id : imuforge::model::effect_params(imuforge::model::Sensor::kAccel, imuforge::model::Effect::kBiasTemp)) {
+    const auto& c = imuforge::model::param_info(id).component;
+    if (c.size() > 3 && (c.substr(c.size() - 2) == "t1" || c.substr(c.size() - 2) == "t2")) base.params.push_back(id);
+  }
+  base.effect_names.push_back("accel.bias_temp");
+  // (time fraction, °C): soaks and ramps of 20-40 °C over ~230 s
+  const std::vector<std::pair<double, double>> knots = {{0, 25}, {0.1, 25}, {0.25, 5}, {0.4, 5}, {0.6, 45}, {0.75, 45}, {0.9, 15}, {1.0, 15}};
+  auto run = [&](double c_temp_rate, double wander_K) {
+    std::mt19937_64 rng(5);
+    std::normal_distribution<double> n01;
+    auto log = static_pose_log(two_axis_tilts(), 8, 8.0, [&](int, const Pose& f, double* y) {
+      for (int j = 0; j < 3; ++j) {
+        y[j] = f[static_cast<std::size_t>(j)] + 2e-3 * n01(rng);
+        y[3 + j] = 5e-4 * n01(rng);
+      }
+    });
+    double T_prev = 0;
+    for (std::size_t k = 0; k < log.size(); ++k) {
+      const double x = static_cast<double>(k) / static_cast<double>(log.size());
+      std::size_t i = 0;
+      while (i + 2 < knots.size() && x > knots[i + 1].first) ++i;
+      const double u = (x - knots[i].first) / (knots[i + 1].first - knots[i].first);
+      log[k].temp_C = knots[i].second + u * (knots[i + 1].second - knots[i].second);
+      const double Tdot_C_s = k ? (log[k].temp_C - T_prev) * 100.0 : 0.0;
+      T_prev = log[k].temp_C;
+      log[k].y[0] += c_temp_rate * Tdot_C_s;
+    }
+    VectorSource src(log);
+    Options o;
+    o.wander_K[0] = wander_K;  // NaN: none given
+    return diagnose(src, base, o);
+  };
+  auto has = [](const DiagnosisResult& r, bool selected) {
+    bool in = false;
+    if (selected)
+      for (const auto& st : r.selected) in = in || (st.sensor == "accel" && st.effect == "temp_rate");
+    else
+      for (const auto& w : r.withdrawn_by_check) in = in || w.first == "accel.temp_rate";
+    return in;
+  };
+  const double none = std::numeric_limits<double>::quiet_NaN();
+  {
+    const auto r = run(1e-3, none);  // 0.09 mm/s² per °C/s of ramp: ~1.2 dwell σ, over many dwells
+    EXPECT_TRUE(has(r, true)) << "the dwells' noise selects it (else the test is not exercised)";
+  }
+  {
+    const auto r = run(1e-3, 1e-4);  // under a random walk of 1e-4 m/s²/√s it cannot be told from the wander
+    ASSERT_TRUE(r.wander[0].adopted);
+    EXPECT_FALSE(has(r, true));
+    EXPECT_TRUE(has(r, false)) << "withdrawn, and said so (measured p 0.82)";
+  }
+  {
+    const auto r = run(1e-2, 1e-4);  // ten times larger: stands above the wander (measured p 2e-10)
+    EXPECT_TRUE(has(r, true));
+    EXPECT_FALSE(has(r, false));
+  }
+}
+
+// A first-step candidate far past the level in-sample whose held-out shrink is ≤ 0 is a contradiction; the
+// ranking says how it resolved against the final model (diagnose.cpp scores it again there). The two readings:
+// gone against the final model (its first-step gain was the signal of effects selected later: blind random-36
+// gyro.g2_sensitivity, -log10 p 746 at step 1, held-out shrink -19 %, p 0.44 against the final model), or
+// still there with nothing on withheld segments. The computation runs on every blind log (68 such candidates
+// on 327 logs); this pins what a reader of diagnosis.json and the text report is told.
+TEST(DiagnosisReport, InSampleGainWithoutHeldOutGainIsExplained) {
+  DiagnosisResult r;
+  r.alpha = 0.001;
+  auto cand = [](const char* effect, double p, double shrink, double final_p, double final_shrink) {
+    CandidateScore c;
+    c.sensor = "gyro";
+    c.effect = effect;
+    c.p_value = p;
+    c.score = -std::log10(p);
+    c.heldout_shrink_pct = shrink;
+    c.final_p = final_p;
+    c.final_shrink_pct = final_shrink;
+    return c;
+  };
+  r.ranking = {cand("g2_sensitivity", 1e-300, -19.0, 0.44, -2.0), cand("misalign_temp", 1e-20, -5.0, 1e-9, -3.0),
+               cand("scale_asymmetry", 0.5, -1.0, -1.0, std::numeric_limits<double>::quiet_NaN())};
+  const auto j = to_json(r);
+  const auto& rk = j["ranking"];
+  ASSERT_EQ(rk.size(), 3u);
+  EXPECT_EQ(rk[0]["outcome"].get<std::string>().rfind("not selected: in-sample gain only, the signal of effects selected later", 0), 0u)
+      << rk[0]["outcome"];
+  EXPECT_DOUBLE_EQ(rk[0]["final_model_p"].get<double>(), 0.44);
+  EXPECT_NE(rk[1]["outcome"].get<std::string>().find("none on withheld segments"), std::string::npos) << rk[1]["outcome"];
+  EXPECT_EQ(rk[2]["outcome"], "not selected");
+  EXPECT_FALSE(rk[2].contains("final_model_p"));
+  EXPECT_NE(summary_text(r).find("the signal of effects selected later"), std::string::npos);
+}
+
+// A gyro bias instability whose correlation time (300 s) is far past the 8 s dwells: their Allan curve shows
+// no flicker (point estimate 0), so the held-out verdict carried white noise only, while the likelihood carried
+// the flicker's upper limit, and the whole-log search started from that limit found no raise: the segment means
+// stood at held-out χ²/dof 1.7-2.2 on these seeds (3.2 on `varied` single-accel.cross_coupling, named
+// unexplained). The search now starts from what the dwells show, and the whole log's wander is adopted.
+TEST(DiagnosisPipeline, AWanderTheDwellsCannotSeeIsFoundOnTheWholeLog) {
+  for (unsigned seed : {5u, 7u}) {
+    const double sigma_rad_s = 2e-5, tau_s = 300.0;
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> n01;
+    double gm = sigma_rad_s * n01(rng);
+    const double phi = std::exp(-0.01 / tau_s), q = sigma_rad_s * std::sqrt(1 - phi * phi);
+    auto log = static_pose_log(two_axis_tilts(), 6, 8.0, [&](int, const Pose& f, double* y) {
+      gm = phi * gm + q * n01(rng);
+      for (int j = 0; j < 3; ++j) {
+        y[j] = f[static_cast<std::size_t>(j)] + 2e-3 * n01(rng);
+        y[3 + j] = (j == 0 ? gm : 0.0) + 5e-4 * n01(rng);
+      }
+    });
+    VectorSource src(log);
+    const DiagnosisResult r = diagnose(src, basic_model(), Options{});
+    ASSERT_EQ(r.stoch[3].flicker_B, 0.0) << seed << ": the dwells show no flicker (else the test is not exercised)";
+    EXPECT_TRUE(r.wander[3].adopted) << seed;
+    EXPECT_GT(r.wander[3].ratio, 1.2) << seed;
+    EXPECT_LT(r.gap_after.chi2_dof[3], 1.2) << seed << ": measured 0.63 and 0.57 (2.25 and 1.67 before)";
+    EXPECT_TRUE(r.unexplained.empty()) << seed;
+    EXPECT_TRUE(r.selected.empty()) << seed;
   }
 }
 
