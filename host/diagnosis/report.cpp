@@ -326,10 +326,9 @@ std::string summary_text(const DiagnosisResult& r) {
     o << "  " << (c.significant ? "* " : "  ") << c.sensor << "." << c.effect << "  -log10p=" << fmt("%.1f", c.score)
       << "  dBIC=" << fmt("%.1f", c.delta_bic) << "  held-out shrink=" << fmt("%.0f", c.heldout_shrink_pct) << "%";
     if (!c.min_detectable.empty()) o << "  5sigma-detectable " << detectable_range(c);
-    if (c.significant || c.one_turn_p >= 0 || c.final_p >= 0 || (c.heat_cool_p >= 0 && c.heat_cool_p < 0.01)) {
-      const std::string oc = outcome(r, c);
-      if (oc != "selected") o << "  -> " << oc;
-    }
+    // What became of it, where that is news: a significant candidate not selected, or any reason outcome() gives.
+    const std::string oc = outcome(r, c);
+    if (oc != "selected" && (c.significant || oc != "not selected")) o << "  -> " << oc;
     o << "\n";
   }
   std::vector<std::string> unexc;
