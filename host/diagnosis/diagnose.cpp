@@ -2037,9 +2037,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // not the withheld ones (columns nearly collinear with the model's on this campaign, so a fold fit
   // extrapolates). On the four blind suites 68 candidates of 327 logs are such (gyro.misalign_temp 15, ...).
   {
-    int m0 = 0;
-    for (const auto& c : R.ranking) m0 += c.excitable ? 1 : 0;
-    const double level0 = o.alpha / std::max(1, m0);
+    const double level0 = R.alpha_per_candidate();
     for (auto& c : R.ranking) {
       if (!c.excitable || !(c.p_value < level0) || c.heldout_shrink_pct > 0) continue;
       const auto [s, e] = effect_of(c.sensor, c.effect);

@@ -11,6 +11,7 @@
 //           the Allan variance at the block length (honest under correlated noise).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -262,6 +263,12 @@ struct DiagnosisResult {
   std::vector<std::string> base_effects;   // "accel.bias", ...
   std::vector<std::string> warnings;       // e.g. "too short to tell"
   double alpha = 0;
+  // The first step's level per candidate: alpha over the excitable candidates of the ranking. O(candidates).
+  double alpha_per_candidate() const {
+    int m = 0;
+    for (const auto& c : ranking) m += c.excitable ? 1 : 0;
+    return alpha / std::max(1, m);
+  }
   // Noise
   std::array<std::vector<AllanAccumulator::Point>, kNumAxes> allan;
   std::array<NoiseFit, kNumAxes> noise;          // IEEE 952 terms of the Allan curve (report)

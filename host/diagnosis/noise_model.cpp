@@ -466,9 +466,8 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
   const double avar0 = m0.avar(tau_long);
   if (no_flicker_seen) m0.bank_sigma = m0.bank_sigma_lik = 0;
   // ... while what the line is reported and judged material against is the level the held-out verdict carries.
-  const double avar_seen = m0.avar(tau_long);
+  const double avar_seen = m0.avar(tau_long);  // ≤ avar0: m0 has lost at most its flicker
   if (!(avar_seen > 0)) return out;
-  if (!(avar0 > 0)) return out;
   const double base = m2ll(m0, rw_prior_var);
   if (!std::isfinite(base)) return out;
   const double step = std::pow(2.0, 0.25);

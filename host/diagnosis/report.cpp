@@ -81,14 +81,12 @@ std::string outcome(const DiagnosisResult& r, const CandidateScore& c) {
   if (c.heat_cool_p >= 0 && c.heat_cool_p < 0.01) return "not selected: differs between heating and cooling";
   if (c.final_p >= 0) {
     // In-sample gain without held-out gain at the first step, scored again against the final model (diagnose.cpp).
-    int m0 = 0;
-    for (const auto& x : r.ranking) m0 += x.excitable ? 1 : 0;
-    const double level0 = r.alpha / std::max(1, m0);
+    const double level0 = r.alpha_per_candidate();
     if (c.final_p >= level0)
       return "not selected: in-sample gain only, the signal of effects selected later (against the final model p " +
              fmt("%.2g", c.final_p) + ", level " + fmt("%.2g", level0) + ")";
     return "not selected: in-sample gain only, none on withheld segments (held-out shrink " + fmt("%.0f", c.final_shrink_pct) +
-           " % against the final model): its columns extrapolate between folds";
+           " % against the final model): what it fits does not carry to withheld segments";
   }
   return "not selected";
 }
@@ -169,7 +167,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
   j["base_model"] = r.base_effects;
   j["validation"] = {{"cv", r.cv_mode}, {"folds", r.folds}, {"alpha_familywise", r.alpha},
                      {"correction", "bonferroni"},
-                     {"alpha_per_candidate", r.ranking.empty() ? r.alpha : r.alpha / std::max<std::size_t>(1, std::count_if(r.ranking.begin(), r.ranking.end(), [](const CandidateScore& c) { return c.excitable; }))}};
+                     {"alpha_per_candidate", r.alpha_per_candidate()}};
   j["gap_before"] = gap_json(r.gap_before, nullptr);
   nlohmann::json rk = nlohmann::json::array();
   for (const auto& c : r.ranking) {
