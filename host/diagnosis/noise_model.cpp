@@ -412,6 +412,8 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
   Eigen::VectorXd S(n);
   // −2 log L_REML: Σ log S + χ² of the GLS fit + log det of the columns' information.
   double max_abs_z = 0, whiteness_p = 1, autocorr_sq = 0;
+  Eigen::VectorXd e(n);  // the last evaluation's standardised innovations
+  Eigen::VectorXd theta_full = Eigen::VectorXd::Zero(P);  // and its GLS fit, all P columns (0 where dropped)
   auto m2ll = [&](const StochasticModel& mm, double rw0) {
     double logS = 0;
     const estimator::NormalEquations ne = gls_normal_equations(mm, t_s, dur_s, rows, rw0, seg_of, nullptr, &logS, &innov, &S);
@@ -424,8 +426,9 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
       const Eigen::LLT<Eigen::MatrixXd> llt(f.cov);
       for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) logdet -= 2.0 * std::log(llt.matrixL()(i, i));
     }
+    theta_full.setZero();
+    for (int k = 0; k < static_cast<int>(f.kept.size()); ++k) theta_full[f.kept[static_cast<std::size_t>(k)]] = f.theta[k];
     max_abs_z = 0;
-    Eigen::VectorXd e(n);
     for (int i = 0; i < n; ++i) {
       double fit_i = 0;
       for (int k = 0; k < static_cast<int>(f.kept.size()); ++k) fit_i += innov(i, 1 + f.kept[static_cast<std::size_t>(k)]) * f.theta[k];
@@ -480,6 +483,37 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
     w.max_abs_z = max_abs_z;
     w.whiteness_p = whiteness_p;
     w.autocorr_sq = autocorr_sq;
+    const SpectralLine line = line_power_spectrum(t_s, e);
+    w.line_p = line.false_alarm_p;
+    w.line_period_s = line.period_s;
+    // A bias step or one outlying block? Both give one large innovation (the outlier's may be the swing back after
+    // it). The residual is fitted, under the same noise model and with the same columns, once with an indicator of
+    // one block and once with a level step, each placed at the largest innovation or a block either side; the
+    // better step against the better single block, as a signed √Δχ².
+    int im = 0;
+    for (int i = 1; i < n; ++i)
+      if (std::fabs(e[i]) > std::fabs(e[im])) im = i;
+    std::vector<int> cols_all(static_cast<std::size_t>(P + 1));
+    std::iota(cols_all.begin(), cols_all.end(), 0);
+    auto rss_with = [&](const Eigen::VectorXd* extra) {
+      Eigen::MatrixXd rr(n, extra ? c + 1 : c);
+      rr.leftCols(c) = rows;
+      if (extra) rr.col(c) = *extra;
+      const estimator::NormalEquations ne = gls_normal_equations(mm, t_s, dur_s, rr, rw0, seg_of);
+      std::vector<int> cols(cols_all.begin(), cols_all.begin() + (extra ? P + 1 : P));
+      return estimator::fit_subset(ne, cols).rss;
+    };
+    const double rss0 = rss_with(nullptr);
+    double best_spike = 0, best_step = 0;
+    for (int k = std::max(0, im - 1); k <= std::min(n - 1, im + 1); ++k) {
+      Eigen::VectorXd spike = Eigen::VectorXd::Zero(n), step = Eigen::VectorXd::Zero(n);
+      spike[k] = 1.0;
+      step.tail(n - k).setOnes();
+      best_spike = std::max(best_spike, rss0 - rss_with(&spike));
+      if (k > 0) best_step = std::max(best_step, rss0 - rss_with(&step));
+    }
+    const double d = best_step - best_spike;
+    w.jump_persist_z = (d >= 0 ? 1.0 : -1.0) * std::sqrt(std::fabs(d));
   };
   // Flicker: the bank's σ raised (a bank exists whenever the Allan fit had points).
   if (!m.bank_tau_s.empty() && flicker_from > 0) {

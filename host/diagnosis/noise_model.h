@@ -100,13 +100,28 @@ struct WholeLogWander {
   // Largest standardised innovation of the GLS residual under the maximiser: Gaussian wander keeps it near
   // √(2 ln n); one jump (a bias step) that a random walk "explains" on average stands out by tens.
   double max_abs_z = 0;
+  // Step or outlier at that innovation: √(Δχ² of the best level step − Δχ² of the best single-block indicator), each
+  // placed there or a block either side and fitted by GLS under the same model and columns, signed (> 0: the step
+  // fits better). A bias step persists; one outlying block does not, and its innovation is followed by the walk's
+  // swing back (varied3 random-0 accel.z: −8.9 σ, then +4.6: a transient the catalog does not model, not a step).
+  double jump_persist_z = 0;
   // Ljung–Box p-value of those innovations (lags 1..10, block order): whitened by the right noise model they are
   // white; a slow periodic bias (a line in the spectrum) that the raised wander "explains" leaves them correlated.
   double whiteness_p = 1;
   // Σ r_k² of those innovations over the same lags: how much of their variance their own past predicts, an effect
   // size beside the p-value (which grows with the number of blocks for any fixed mismatch of the noise shape).
   double autocorr_sq = 0;
+  // A line in the spectrum of those innovations: the largest Lomb–Scargle power over periods from twice the median
+  // block spacing to half the log (line_power_spectrum), its false-alarm probability over the independent
+  // frequencies searched, and its period. Correlated innovations alone do not tell a periodic bias from a wander
+  // of a slightly different shape than the model's (the Ljung–Box p falls with the number of blocks for any
+  // fixed mismatch: varied2 stoch-automotive-4, a 1.1e-4 m/s²/√s random walk beside a 100 s Gauss–Markov,
+  // whiteness p 3e-10 at Σ r² 0.07); a sinusoid stays one line through the whitening filter (stats.h
+  // line_power_spectrum).
+  double line_p = 1;
+  double line_period_s = 0;
 };
+
 // m with a whole-log raise applied: w's maximiser (flicker bank σ or random-walk K), or with w null or kNone the
 // likelihood's own level (the flicker bank at the larger of its point and upper σ; a random-walk raise on a model
 // whose point flicker is 0 carries no flicker, as the search started there). rw_prior_var_out receives

@@ -114,10 +114,10 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       if (w.beyond_limit && w.beyond_reason == "too_large")
         line += "; as noise it would take a bias wander " + fmt("%.2g", w.limit_ratio) + "x what the static dwells show";
       else if (w.beyond_limit && w.beyond_reason == "jump")
-        line += "; not a stationary bias wander either: one jump of " + fmt("%.1f", w.max_abs_z) + " sigma";
+        line += "; not a stationary bias wander either: a bias step of " + fmt("%.1f", w.max_abs_z) + " sigma";
       else if (w.beyond_limit && w.beyond_reason == "periodic")
-        line += "; not a stationary bias wander either: what is left under one stays correlated (Ljung-Box p " +
-                fmt("%.1g", w.whiteness_p) + ")";
+        line += "; not a stationary bias wander either: what is left under one carries a line of period " +
+                fmt("%.0f", w.line_period_s) + " s (false-alarm p " + fmt("%.1g", w.line_p) + ")";
     } else {
       std::vector<std::string> by;
       for (const auto& st : r.selected)
@@ -279,8 +279,9 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"gm_tau_s", num(m.gm_tau_s)}, {"flicker_B", num(m.flicker_B)}, {"flicker_B_upper", num(m.flicker_B_upper)},
                                                  {"K", num(m.K)}}},
                            {"whole_log_wander", {{"kind", r.wander[u].kind}, {"value", num(r.wander[u].value)},
-                                                 {"ratio", num(r.wander[u].ratio)}, {"limit_ratio", num(r.wander[u].limit_ratio)}, {"gain", num(r.wander[u].gain)}, {"max_abs_z", num(r.wander[u].max_abs_z)}, {"whiteness_p", num(r.wander[u].whiteness_p)},
-                                                 {"autocorr_sq", num(r.wander[u].autocorr_sq)},
+                                                 {"ratio", num(r.wander[u].ratio)}, {"limit_ratio", num(r.wander[u].limit_ratio)}, {"gain", num(r.wander[u].gain)}, {"max_abs_z", num(r.wander[u].max_abs_z)}, {"jump_persist_z", num(r.wander[u].jump_persist_z)}, {"whiteness_p", num(r.wander[u].whiteness_p)},
+                                                 {"autocorr_sq", num(r.wander[u].autocorr_sq)}, {"line_p", num(r.wander[u].line_p)},
+                                                 {"line_period_s", num(r.wander[u].line_period_s)},
                                                  {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
                                             {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))}}}};

@@ -212,4 +212,71 @@ NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsign
   return best;
 }
 
+SpectralLine line_power_spectrum(const std::vector<double>& t_s, const Eigen::Ref<const Eigen::VectorXd>& e) {
+  SpectralLine out;
+  const int n = static_cast<int>(e.size());
+  if (n < 20 || static_cast<int>(t_s.size()) != n) return out;
+  std::vector<double> dt;
+  dt.reserve(static_cast<std::size_t>(n));
+  for (int i = 1; i < n; ++i) dt.push_back(t_s[static_cast<std::size_t>(i)] - t_s[static_cast<std::size_t>(i - 1)]);
+  std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
+  const double med_dt = dt[dt.size() / 2];
+  const double t0 = t_s.front(), span = t_s.back() - t_s.front();
+  if (!(med_dt > 0) || !(span > 0)) return out;
+  const double f_lo = 2.0 / span, f_hi = 0.5 / med_dt;
+  if (!(f_hi > f_lo)) return out;
+  const int over = 4;
+  const double df = 1.0 / (over * span);
+  const int F = static_cast<int>((f_hi - f_lo) / df) + 1;
+  const Eigen::VectorXd ec = e.array() - e.mean();
+  const double var = ec.squaredNorm() / std::max(1, n - 1);
+  if (!(var > 0)) return out;
+  // cos/sin of 2π f t_i for every i, advanced by one grid step per frequency (a rotation by 2π df t_i).
+  std::vector<double> c(static_cast<std::size_t>(n)), s(static_cast<std::size_t>(n)), cd(static_cast<std::size_t>(n)),
+      sd(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const double t = t_s[static_cast<std::size_t>(i)] - t0;
+    c[static_cast<std::size_t>(i)] = std::cos(2.0 * M_PI * f_lo * t);
+    s[static_cast<std::size_t>(i)] = std::sin(2.0 * M_PI * f_lo * t);
+    cd[static_cast<std::size_t>(i)] = std::cos(2.0 * M_PI * df * t);
+    sd[static_cast<std::size_t>(i)] = std::sin(2.0 * M_PI * df * t);
+  }
+  for (int k = 0; k < F; ++k) {
+    double C = 0, S = 0, CC = 0, SS = 0, CS = 0;
+    for (int i = 0; i < n; ++i) {
+      const auto ui = static_cast<std::size_t>(i);
+      const double ci = c[ui], si = s[ui];
+      C += ec[i] * ci;
+      S += ec[i] * si;
+      CC += ci * ci;
+      SS += si * si;
+      CS += ci * si;
+      c[ui] = ci * cd[ui] - si * sd[ui];
+      s[ui] = si * cd[ui] + ci * sd[ui];
+    }
+    // The least-squares sinusoid a·cos + b·sin (Scargle's power without his τ): [C S] M⁻¹ [C S]ᵀ / (2 var).
+    const double det = CC * SS - CS * CS;
+    if (!(det > 1e-12 * CC * SS)) continue;
+    const double pw = (SS * C * C - 2.0 * CS * C * S + CC * S * S) / det / (2.0 * var);
+    if (pw > out.power) {
+      out.power = pw;
+      out.period_s = 1.0 / (f_lo + k * df);
+    }
+  }
+  // Baluev (2008, MNRAS 385, 1279) for a power of known noise level: FAP ≤ e^{−P} + W e^{−P} √P with
+  // W = bandwidth · √(4π Var t), tight at small FAP for any sampling. (1 − (1 − e^{−P})^M with M = bandwidth × span,
+  // the regular-sampling count, fired 2.5× too often at 10 % on white noise: the oversampled grid finds peaks
+  // between the independent frequencies.)
+  double mt = 0, mt2 = 0;
+  for (double ti : t_s) {
+    mt += ti - t0;
+    mt2 += (ti - t0) * (ti - t0);
+  }
+  mt /= n;
+  const double var_t = std::max(mt2 / n - mt * mt, 0.0);
+  const double W = (f_hi - f_lo) * std::sqrt(4.0 * M_PI * var_t);
+  out.false_alarm_p = std::min(1.0, std::exp(-out.power) * (1.0 + W * std::sqrt(out.power)));
+  return out;
+}
+
 }  // namespace imuforge::diagnosis

@@ -1,5 +1,6 @@
-// Statistics used by the gap diagnosis: chi-square tail, overlapping Allan variance, and the
-// IEEE 952 noise-term fit of an Allan curve. No dependency on the rest of imuforge.
+// Statistics used by the gap diagnosis: chi-square tail, overlapping Allan variance, the IEEE 952 noise-term
+// fit of an Allan curve, and the largest spectral line of an irregularly sampled series. No dependency on the
+// rest of imuforge.
 #pragma once
 
 #include <functional>
@@ -68,5 +69,15 @@ bool fit_allan_terms(const std::vector<AllanAccumulator::Point>& pts, const std:
 // correlation time (IEEE 952's correlated noise; an output filter's bend at the short end), amplitude fitted,
 // not reported among the terms; chi2 stays +inf when no subset fits with it.
 NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsigned enabled_mask = 0xF, double gm_T_s = 0.0);
+
+// Largest Lomb–Scargle power of the series e (standardised innovations, mean removed inside) sampled at t_s, over
+// frequencies 2/D .. 1/(2 · median spacing) (D the span of t_s) on a grid oversampled 4× against 1/D; the power
+// is the χ²(2)/2 of the best-fitting sinusoid (Exp(1) under white noise at each frequency). false_alarm_p: Baluev's
+// (2008) bound for the largest of them over the range, valid for irregular sampling. O(n · frequencies) by
+// trigonometric recurrence.
+struct SpectralLine {
+  double power = 0, false_alarm_p = 1, period_s = 0;
+};
+SpectralLine line_power_spectrum(const std::vector<double>& t_s, const Eigen::Ref<const Eigen::VectorXd>& e);
 
 }  // namespace imuforge::diagnosis

@@ -5,6 +5,13 @@
 
 namespace imuforge::estimator {
 
+int interleaved_fold(int unit, int folds) {
+  if (folds <= 1) return 0;
+  const double inv_phi = 0.5 * (std::sqrt(5.0) - 1.0);
+  const double x = static_cast<double>(unit) * inv_phi;
+  return std::min(folds - 1, static_cast<int>(static_cast<double>(folds) * (x - std::floor(x))));
+}
+
 void FoldedNormalEquations::reset(int folds, int n_params) {
   fold.assign(static_cast<size_t>(std::max(folds, 0)), NormalEquations(n_params));
   weight.assign(fold.size(), 0.0);

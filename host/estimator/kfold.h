@@ -32,6 +32,13 @@ struct FoldedNormalEquations {
   double total_weight() const;
 };
 
+// Fold of unit i (a segment, in time order) among K: ⌊K · frac(i · φ⁻¹)⌋, φ the golden ratio. Like i mod K,
+// neighbouring units fall in different folds (withholding interleaves in time); unlike it, a schedule that repeats
+// one sequence of units (a campaign's per-plateau tumble and rate runs) does not put every unit of one kind in one
+// fold when its length is a multiple of K: the Weyl sequence of φ⁻¹, the most badly approximable irrational,
+// spreads any period over all folds. Fold sizes stay within about ±2 of n/K. O(1).
+int interleaved_fold(int unit, int folds);
+
 // The held-out score of a column set summed over the withheld folds.
 struct HeldOut {
   double chi2 = 0, expected = 0, W = 0;

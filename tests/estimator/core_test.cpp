@@ -177,3 +177,29 @@ TEST(EstimatorCore, KFoldHeldOutMatchesABruteForceRefit) {
   EXPECT_THROW(heldout(fne, FoldedNormalEquations(K + 1, 3), {0}), EstimatorError);
 }
 }  // namespace estimator_core_test
+
+// Units in time order: neighbours in different folds, sizes balanced, and a repeated sequence whose length is a
+// multiple of K spread over every fold (i mod K puts each of its positions in one fold).
+TEST(EstimatorCore, InterleavedFoldsSpreadARepeatedSchedule) {
+  const int K = 5, n = 600;
+  std::vector<int> size(K, 0);
+  int same_as_previous = 0;
+  for (int i = 0; i < n; ++i) {
+    const int f = imuforge::estimator::interleaved_fold(i, K);
+    ASSERT_GE(f, 0);
+    ASSERT_LT(f, K);
+    ++size[static_cast<std::size_t>(f)];
+    if (i > 0 && f == imuforge::estimator::interleaved_fold(i - 1, K)) ++same_as_previous;
+  }
+  for (int k = 0; k < K; ++k) EXPECT_NEAR(size[static_cast<std::size_t>(k)], n / K, 3) << k;
+  EXPECT_EQ(same_as_previous, 0) << "consecutive units always in different folds (frac steps of 0.618 over 5 bins)";
+  for (int period : {10, 20, 24, 60}) {
+    for (int pos = 0; pos < period; ++pos) {
+      std::vector<int> seen(K, 0);
+      for (int r = 0; r < n / period; ++r) seen[static_cast<std::size_t>(imuforge::estimator::interleaved_fold(pos + r * period, K))] = 1;
+      int folds_hit = 0;
+      for (int v : seen) folds_hit += v;
+      EXPECT_GE(folds_hit, std::min(K, n / period) - 1) << "period " << period << " position " << pos;
+    }
+  }
+}

@@ -7,6 +7,7 @@ diagnosis against the acceptance figures of issue 12 (docs/diagnosis.md, "Blind 
   battery.py --imuforge build/host/bin/imuforge --suite full --work /tmp/blind       # the benchmark
   battery.py ... --suite holdout   # stochastic + mixed cases at seeds no change was tuned on (stop 24)
   battery.py ... --suite varied    # every kind on another lab's schedule (blindgen size 'varied', stop 25)
+  battery.py ... --suite varied2 / varied3   # the same schedule at fresh seeds (stops 26, 29)
   battery.py ... --source simulate      # same sensors through `imuforge simulate` (catalog effects only)
   battery.py ... --floors tools/blindgen/floors-smoke.json   # exit 1 when a figure falls below its floor
 
@@ -57,6 +58,24 @@ TARGETS = {
 }
 
 
+def varied_fresh(seed0, per_class_null, per_class_stoch, n_random, ooc_each):
+    """Cases of blindgen size 'varied' at seeds seed0 + 0.., +100.., +200.., +300.. (ooc), +390.. (mixed)."""
+    cases = []
+    for i, cls in enumerate(blindgen.CLASSES * per_class_null):
+        cases.append(('null-%s-%d' % (cls, i), 'null', seed0 + i, {'cls': cls, 'size': 'varied'}))
+    for i, cls in enumerate(blindgen.CLASSES * per_class_stoch):
+        cases.append(('stoch-%s-%d' % (cls, i), 'stochastic', seed0 + 100 + i, {'cls': cls, 'size': 'varied'}))
+    for i in range(n_random):
+        cases.append(('random-%d' % i, 'random', seed0 + 200 + i, {'size': 'varied'}))
+    for k, kind in enumerate(blindgen.OOC_KINDS):
+        for i in range(ooc_each):
+            name = 'ooc-%s-%d' % (kind, i) if ooc_each > 1 else 'ooc-%s' % kind
+            seed = seed0 + 300 + 10 * k + i if ooc_each > 1 else seed0 + 300 + k
+            cases.append((name, 'ooc', seed, {'ooc': kind, 'size': 'varied'}))
+        cases.append(('mixed-%s' % kind, 'mixed', seed0 + (390 if ooc_each > 1 else 400) + k, {'ooc': kind, 'size': 'varied'}))
+    return cases
+
+
 def suite(name):
     """(case name, kind, seed, options) of a suite."""
     cases = []
@@ -99,17 +118,12 @@ def suite(name):
     if name == 'varied2':
         # the varied schedule at new seeds (9600+), added at stop 26 after its change was fixed: nothing was tuned
         # on it; two out-of-catalog cases per kind, since the varied suite's one each cannot tell 0.9 from 0.75
-        for i, cls in enumerate(blindgen.CLASSES * 4):
-            cases.append(('null-%s-%d' % (cls, i), 'null', 9600 + i, {'cls': cls, 'size': 'varied'}))
-        for i, cls in enumerate(blindgen.CLASSES * 3):
-            cases.append(('stoch-%s-%d' % (cls, i), 'stochastic', 9700 + i, {'cls': cls, 'size': 'varied'}))
-        for i in range(10):
-            cases.append(('random-%d' % i, 'random', 9800 + i, {'size': 'varied'}))
-        for k, kind in enumerate(blindgen.OOC_KINDS):
-            for i in range(2):
-                cases.append(('ooc-%s-%d' % (kind, i), 'ooc', 9900 + 10 * k + i, {'ooc': kind, 'size': 'varied'}))
-            cases.append(('mixed-%s' % kind, 'mixed', 9990 + k, {'ooc': kind, 'size': 'varied'}))
-        return cases
+        return varied_fresh(9600, per_class_null=4, per_class_stoch=3, n_random=10, ooc_each=2)
+    if name == 'varied3':
+        # the varied schedule at new seeds (10000+), added at stop 29 before any change of that stop: nothing was
+        # tuned on it. Weighted to the cases where a false claim costs most (nothing beyond the model, stochastic
+        # only) and to multi-effect recall.
+        return varied_fresh(10000, per_class_null=5, per_class_stoch=5, n_random=15, ooc_each=1)
     if name != 'full':
         raise SystemExit('unknown suite ' + name)
     for s in range(1, 51):
@@ -475,7 +489,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
