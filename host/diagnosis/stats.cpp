@@ -223,9 +223,17 @@ SpectralLine line_power_spectrum(const std::vector<double>& t_s, const Eigen::Re
   const double med_dt = dt[dt.size() / 2];
   const double t0 = t_s.front(), span = t_s.back() - t_s.front();
   if (!(med_dt > 0) || !(span > 0)) return out;
-  const double f_lo = 2.0 / span, f_hi = 0.5 / med_dt;
+  const double f_lo = 2.0 / span;
+  double f_hi = 0.5 / med_dt;
   if (!(f_hi > f_lo)) return out;
-  const int over = 4;
+  // The work is n × frequencies, and the frequencies grow with n (span / spacing): bounded at kMaxWork by
+  // oversampling less (4× down to 1×), then, for logs of tens of thousands of blocks, by searching up to a lower
+  // frequency (the slowest lines, those a whole-log wander is mistaken for, are kept; a 1 h log of 3273 blocks
+  // needs neither).
+  const double kMaxWork = 4e7;
+  int over = 4;
+  while (over > 1 && static_cast<double>(n) * (f_hi - f_lo) * over * span > kMaxWork) over /= 2;
+  f_hi = std::min(f_hi, f_lo + kMaxWork / (static_cast<double>(n) * over * span));
   const double df = 1.0 / (over * span);
   const int F = static_cast<int>((f_hi - f_lo) / df) + 1;
   const Eigen::VectorXd ec = e.array() - e.mean();

@@ -71,9 +71,10 @@ bool fit_allan_terms(const std::vector<AllanAccumulator::Point>& pts, const std:
 NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsigned enabled_mask = 0xF, double gm_T_s = 0.0);
 
 // Largest Lomb–Scargle power of the series e (standardised innovations, mean removed inside) sampled at t_s, over
-// frequencies 2/D .. 1/(2 · median spacing) (D the span of t_s) on a grid oversampled 4× against 1/D; the power
+// frequencies 2/D .. 1/(2 · median spacing) (D the span of t_s) on a grid oversampled 4× against 1/D (less, and then
+// a lower top frequency, where n × frequencies would pass 4e7: O(n²) otherwise); the power
 // is the χ²(2)/2 of the best-fitting sinusoid (Exp(1) under white noise at each frequency). false_alarm_p: Baluev's
-// (2008) bound for the largest of them over the range, valid for irregular sampling. O(n · frequencies) by
+// (2008) bound for the largest of them over the range searched, valid for irregular sampling. O(min(n², 4e7)) by
 // trigonometric recurrence.
 struct SpectralLine {
   double power = 0, false_alarm_p = 1, period_s = 0;

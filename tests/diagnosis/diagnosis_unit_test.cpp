@@ -351,6 +351,20 @@ TEST(DiagnosisNoiseModel, SpectralLineFalseAlarmIsCalibratedOnWhiteNoise) {
   const SpectralLine l = line_power_spectrum(t, e);
   EXPECT_LT(l.false_alarm_p, 1e-6);
   EXPECT_NEAR(l.period_s, 700.0, 20.0);
+  // A log of 40000 blocks, where the search is bounded (coarser grid, lower top frequency): a slow line is still
+  // found at its period, and white noise alone still is not a line.
+  const int n_long = 40000;
+  std::vector<double> t_long(static_cast<std::size_t>(n_long));
+  Eigen::VectorXd e_long(n_long), w_long(n_long);
+  for (int i = 0; i < n_long; ++i) {
+    t_long[static_cast<std::size_t>(i)] = 1.0 * i;
+    w_long[i] = n01(rng);
+    e_long[i] = w_long[i] + 0.1 * std::sin(2.0 * M_PI * i / 2000.0);
+  }
+  const SpectralLine ll = line_power_spectrum(t_long, e_long);
+  EXPECT_LT(ll.false_alarm_p, 1e-6);
+  EXPECT_NEAR(ll.period_s, 2000.0, 60.0);
+  EXPECT_GT(line_power_spectrum(t_long, w_long).false_alarm_p, 1e-3);
 }
 
 TEST(DiagnosisNoiseModel, OutputStepIsFoundOnALatticeOnly) {
