@@ -2100,15 +2100,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       auto& w = R.wander[ua];
       w.kind = pick->kind == WholeLogWander::kFlicker ? "flicker" : "random_walk";
       w.value = pick->kind == WholeLogWander::kFlicker ? pick->B : pick->K;
-      w.ratio = pick->ratio;
-      w.limit_ratio = pick->limit_ratio;
-      w.gain = pick->gain;
-      w.max_abs_z = pick->max_abs_z;
-      w.jump_persist_z = pick->jump_persist_z;
-      w.whiteness_p = pick->whiteness_p;
-      w.autocorr_sq = pick->autocorr_sq;
-      w.line_p = pick->line_p;
-      w.line_period_s = pick->line_period_s;
+      w.measured = *pick;
       w.beyond_reason = reason(*pick);
       w.beyond_limit = !w.beyond_reason.empty();
       // Within the held-out threshold, but what is left is neither a catalog effect nor stationary wander
@@ -2561,13 +2553,13 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     for (int a = 0; a < kNumAxes; ++a) {
       const auto ua = static_cast<std::size_t>(a);
       const auto& w = R.wander[ua];
-      if (w.adopted || w.kind.empty() || w.beyond_limit || !(w.ratio > 1.2) || !(w.gain > 3.84)) continue;
+      if (w.adopted || w.kind.empty() || w.beyond_limit || !(w.measured.ratio > 1.2) || !(w.measured.gain > 3.84)) continue;
       (w.kind == "flicker" ? ow.wander_B : ow.wander_K)[ua] = w.value;
       char buf[360];
       std::snprintf(buf, sizeof buf,
                     "%s: the whole log's bias wander is %.2g x what the static dwells show (Allan deviation at a quarter "
                     "of the log; as %s %.3g; -2 log L gain %.1f): carried into the likelihood and the held-out variances",
-                    axis_name(a), w.ratio, w.kind == "flicker" ? "flicker B" : "rate random walk K", w.value, w.gain);
+                    axis_name(a), w.measured.ratio, w.kind == "flicker" ? "flicker B" : "rate random walk K", w.value, w.measured.gain);
       notes.push_back(buf);
     }
     if (!notes.empty()) {

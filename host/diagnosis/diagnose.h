@@ -296,18 +296,12 @@ struct DiagnosisResult {
   struct Wander {
     std::string kind;                 // "", "flicker", "random_walk"
     double value = 0;                 // flicker B or K
-    double ratio = 1;                 // Allan deviation at D/4: whole log / dwells
-    double limit_ratio = 1;           // the same against the likelihood's level: what the size limit judges
-    double gain = 0;                  // −2 log L gain over the dwells' level
-    double max_abs_z = 0;             // largest standardised innovation under it (noise_model.h)
-    double jump_persist_z = 0;        // step against outlier at it, signed √Δχ² (noise_model.h)
-    double whiteness_p = 1;           // Ljung–Box p of those innovations
-    double autocorr_sq = 0;           // Σ r_k² of those innovations (lags 1..10)
-    double line_p = 1;                // false-alarm p of their largest spectral line (noise_model.h)
-    double line_period_s = 0;         // its period
+    // The picked line as whole_log_wander measured it (ratio, limit_ratio, gain, max_abs_z, jump_persist_z,
+    // whiteness_p, autocorr_sq, line_p, line_period_s; noise_model.h says what each is).
+    WholeLogWander measured;
     bool beyond_limit = false, adopted = false;
-    std::string beyond_reason;        // "too_large" (ratio > wander_max_factor), "jump" (max_abs_z > wander_max_z and
-                                      // jump_persist_z > wander_step_persist_z: a bias step)
+    std::string beyond_reason;        // "too_large" (limit_ratio > wander_max_factor), "jump" (max_abs_z > wander_max_z
+                                      // and jump_persist_z > wander_step_persist_z: a bias step)
                                       // or "periodic" (line_p < wander_max_line_p)
   };
   std::array<Wander, kNumAxes> wander{};

@@ -413,7 +413,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
   // −2 log L_REML: Σ log S + χ² of the GLS fit + log det of the columns' information.
   double max_abs_z = 0, whiteness_p = 1, autocorr_sq = 0;
   Eigen::VectorXd e(n);  // the last evaluation's standardised innovations
-  Eigen::VectorXd theta_full = Eigen::VectorXd::Zero(P);  // and its GLS fit, all P columns (0 where dropped)
+  double rss_last = 0;   // and its GLS fit's χ²
   auto m2ll = [&](const StochasticModel& mm, double rw0) {
     double logS = 0;
     const estimator::NormalEquations ne = gls_normal_equations(mm, t_s, dur_s, rows, rw0, seg_of, nullptr, &logS, &innov, &S);
@@ -426,8 +426,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
       const Eigen::LLT<Eigen::MatrixXd> llt(f.cov);
       for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) logdet -= 2.0 * std::log(llt.matrixL()(i, i));
     }
-    theta_full.setZero();
-    for (int k = 0; k < static_cast<int>(f.kept.size()); ++k) theta_full[f.kept[static_cast<std::size_t>(k)]] = f.theta[k];
+    rss_last = f.rss;
     max_abs_z = 0;
     for (int i = 0; i < n; ++i) {
       double fit_i = 0;
@@ -495,22 +494,20 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
       if (std::fabs(e[i]) > std::fabs(e[im])) im = i;
     std::vector<int> cols_all(static_cast<std::size_t>(P + 1));
     std::iota(cols_all.begin(), cols_all.end(), 0);
-    auto rss_with = [&](const Eigen::VectorXd* extra) {
-      Eigen::MatrixXd rr(n, extra ? c + 1 : c);
-      rr.leftCols(c) = rows;
-      if (extra) rr.col(c) = *extra;
-      const estimator::NormalEquations ne = gls_normal_equations(mm, t_s, dur_s, rr, rw0, seg_of);
-      std::vector<int> cols(cols_all.begin(), cols_all.begin() + (extra ? P + 1 : P));
-      return estimator::fit_subset(ne, cols).rss;
+    Eigen::MatrixXd rr(n, c + 1);
+    rr.leftCols(c) = rows;
+    auto rss_with = [&](const Eigen::VectorXd& extra) {
+      rr.col(c) = extra;
+      return estimator::fit_subset(gls_normal_equations(mm, t_s, dur_s, rr, rw0, seg_of), cols_all).rss;
     };
-    const double rss0 = rss_with(nullptr);
+    const double rss0 = rss_last;  // m2ll(mm, rw0) above: the same fit without an extra column
     double best_spike = 0, best_step = 0;
     for (int k = std::max(0, im - 1); k <= std::min(n - 1, im + 1); ++k) {
       Eigen::VectorXd spike = Eigen::VectorXd::Zero(n), step = Eigen::VectorXd::Zero(n);
       spike[k] = 1.0;
       step.tail(n - k).setOnes();
-      best_spike = std::max(best_spike, rss0 - rss_with(&spike));
-      if (k > 0) best_step = std::max(best_step, rss0 - rss_with(&step));
+      best_spike = std::max(best_spike, rss0 - rss_with(spike));
+      if (k > 0) best_step = std::max(best_step, rss0 - rss_with(step));
     }
     const double d = best_step - best_spike;
     w.jump_persist_z = (d >= 0 ? 1.0 : -1.0) * std::sqrt(std::fabs(d));

@@ -112,12 +112,12 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       // Why it is not read as noise either (the whole log's wander, diagnose.h Options::wander_*).
       const auto& w = r.wander[u];
       if (w.beyond_limit && w.beyond_reason == "too_large")
-        line += "; as noise it would take a bias wander " + fmt("%.2g", w.limit_ratio) + "x what the static dwells show";
+        line += "; as noise it would take a bias wander " + fmt("%.2g", w.measured.limit_ratio) + "x what the static dwells show";
       else if (w.beyond_limit && w.beyond_reason == "jump")
-        line += "; not a stationary bias wander either: a bias step of " + fmt("%.1f", w.max_abs_z) + " sigma";
+        line += "; not a stationary bias wander either: a bias step of " + fmt("%.1f", w.measured.max_abs_z) + " sigma";
       else if (w.beyond_limit && w.beyond_reason == "periodic")
         line += "; not a stationary bias wander either: what is left under one carries a line of period " +
-                fmt("%.0f", w.line_period_s) + " s (false-alarm p " + fmt("%.1g", w.line_p) + ")";
+                fmt("%.0f", w.measured.line_period_s) + " s (false-alarm p " + fmt("%.1g", w.measured.line_p) + ")";
     } else {
       std::vector<std::string> by;
       for (const auto& st : r.selected)
@@ -142,7 +142,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     if (m.gm_sigma > 0) line += "; drift: Gauss-Markov sigma " + fmt("%.3g", m.gm_sigma) + ", tau " + fmt("%.3g", m.gm_tau_s) + " s";
     if (m.bank_sigma > 0) line += "; flicker bias instability B " + fmt("%.3g", m.flicker_B);
     if (r.wander[u].adopted)
-      line += "; whole-log bias wander " + fmt("%.2g", r.wander[u].ratio) + "x the static dwells' (" +
+      line += "; whole-log bias wander " + fmt("%.2g", r.wander[u].measured.ratio) + "x the static dwells' (" +
               (r.wander[u].kind == "flicker" ? "flicker B " : "rate random walk ") + fmt("%.3g", r.wander[u].value) + ")";
     if (m.K > 0) line += "; rate random walk " + fmt("%.3g", m.K);
     // A coarse output step is a noise finding too: it caps how well any static mean can be read.
@@ -279,9 +279,9 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"gm_tau_s", num(m.gm_tau_s)}, {"flicker_B", num(m.flicker_B)}, {"flicker_B_upper", num(m.flicker_B_upper)},
                                                  {"K", num(m.K)}}},
                            {"whole_log_wander", {{"kind", r.wander[u].kind}, {"value", num(r.wander[u].value)},
-                                                 {"ratio", num(r.wander[u].ratio)}, {"limit_ratio", num(r.wander[u].limit_ratio)}, {"gain", num(r.wander[u].gain)}, {"max_abs_z", num(r.wander[u].max_abs_z)}, {"jump_persist_z", num(r.wander[u].jump_persist_z)}, {"whiteness_p", num(r.wander[u].whiteness_p)},
-                                                 {"autocorr_sq", num(r.wander[u].autocorr_sq)}, {"line_p", num(r.wander[u].line_p)},
-                                                 {"line_period_s", num(r.wander[u].line_period_s)},
+                                                 {"ratio", num(r.wander[u].measured.ratio)}, {"limit_ratio", num(r.wander[u].measured.limit_ratio)}, {"gain", num(r.wander[u].measured.gain)}, {"max_abs_z", num(r.wander[u].measured.max_abs_z)}, {"jump_persist_z", num(r.wander[u].measured.jump_persist_z)}, {"whiteness_p", num(r.wander[u].measured.whiteness_p)},
+                                                 {"autocorr_sq", num(r.wander[u].measured.autocorr_sq)}, {"line_p", num(r.wander[u].measured.line_p)},
+                                                 {"line_period_s", num(r.wander[u].measured.line_period_s)},
                                                  {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
                                             {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))}}}};

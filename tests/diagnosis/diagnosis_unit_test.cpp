@@ -475,8 +475,8 @@ TEST(DiagnosisPipeline, PeriodicBiasBelowTheHeldOutThresholdIsStillNamed) {
       ASSERT_NE(u, nullptr) << "the periodic bias must be named";
       EXPECT_EQ(u->basis, "wander");
       EXPECT_EQ(r.wander[4].beyond_reason, "periodic");
-      EXPECT_LT(r.wander[4].line_p, o.wander_max_line_p);
-      EXPECT_NEAR(r.wander[4].line_period_s, 400.0, 40.0) << "the line is the sine's";
+      EXPECT_LT(r.wander[4].measured.line_p, o.wander_max_line_p);
+      EXPECT_NEAR(r.wander[4].measured.line_period_s, 400.0, 40.0) << "the line is the sine's";
       EXPECT_EQ(r.unexplained.size(), 1u);
     } else {
       EXPECT_TRUE(r.unexplained.empty()) << (kind == 2 ? "a random walk is noise" : "white noise");
@@ -645,7 +645,7 @@ TEST(DiagnosisPipeline, AWanderTheDwellsCannotSeeIsFoundOnTheWholeLog) {
     const DiagnosisResult r = diagnose(src, basic_model(), Options{});
     ASSERT_EQ(r.stoch[3].flicker_B, 0.0) << seed << ": the dwells show no flicker (else the test is not exercised)";
     EXPECT_TRUE(r.wander[3].adopted) << seed;
-    EXPECT_GT(r.wander[3].ratio, 1.2) << seed;
+    EXPECT_GT(r.wander[3].measured.ratio, 1.2) << seed;
     EXPECT_LT(r.gap_after.chi2_dof[3], 1.2) << seed << ": measured 0.63 and 0.57 (2.25 and 1.67 before)";
     EXPECT_TRUE(r.unexplained.empty()) << seed;
     EXPECT_TRUE(r.selected.empty()) << seed;
