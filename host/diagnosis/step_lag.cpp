@@ -1,6 +1,7 @@
 // Lag probe at the reference steps (step_lag.h says what; docs/diagnosis.md § timing says why).
 #include "host/diagnosis/step_lag.h"
 
+#include <algorithm>
 #include <deque>
 #include <vector>
 
@@ -74,30 +75,29 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
     const std::size_t n = ts[s].size();
     StepLag& r = out[static_cast<std::size_t>(s)];
     r.n_steps = static_cast<int>(n);
-    auto decisive = [&](int k, int other) { return k >= 6 && 10 * k >= static_cast<int>(n) && other == 0; };
+    // Noise cannot misread a step this large, so one-sided misreadings are a lag; a lag of a fraction q of a sample
+    // misreads a fraction q of steps whose changes fall anywhere within a row interval, so a count, not only a
+    // share, decides: 10 (none the other way) at any share. Over the 230 varied-schedule logs of four blind suites
+    // no sensor without a timing error misread a single step; varied4 random-6 (0.81 ms at 100 Hz) read 14 of 155.
+    auto decisive = [&](int k, int other) { return other == 0 && ((k >= 6 && 10 * k >= static_cast<int>(n)) || k >= 10); };
     r.sign = decisive(r.n_late, r.n_early) ? 1 : decisive(r.n_early, r.n_late) ? -1 : 0;
     if (n < 6) continue;
-    // Least squares lag = latency + ppm·1e-6·t through the steps' values (k − offset)·h.
-    double S = 0, St = 0, Stt = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double t = ts[s][i];
-      S += 1; St += t; Stt += t * t;
-    }
-    const double det = S * Stt - St * St;
-    if (!(det > 0)) continue;
-    auto fit = [&](double offset, double& lat, double& slope, double& ss) {
+    // Least squares lag = latency + ppm·1e-6·t through the steps' values (k − offset)·h, over the steps in `in`.
+    std::vector<char> in(n, 1);
+    double S = 0, St = 0, Stt = 0, det = 0;
+    auto fit = [&](double offset, double& lat, double& slope) {
+      S = St = Stt = 0;
       double Sy = 0, Sty = 0;
       for (std::size_t i = 0; i < n; ++i) {
-        const double y = (lag[s][i] - offset) * h;
-        Sy += y; Sty += ts[s][i] * y;
+        if (!in[i]) continue;
+        const double t = ts[s][i], y = (lag[s][i] - offset) * h;
+        S += 1; St += t; Stt += t * t; Sy += y; Sty += t * y;
       }
+      det = S * Stt - St * St;
+      if (!(det > 0)) return false;
       slope = (S * Sty - St * Sy) / det;
       lat = (Sy - slope * St) / S;
-      ss = 0;
-      for (std::size_t i = 0; i < n; ++i) {
-        const double e = (lag[s][i] - offset) * h - (lat + slope * ts[s][i]);
-        ss += e * e;
-      }
+      return true;
     };
     // Where in its row interval a pose changed is not in the log. A schedule in whole samples changes the pose at
     // the row that shows it: k = ⌈δ/h⌉ exactly, δ ∈ ((k−1)h, kh], value (k − ½)h, and k never steps against the
@@ -105,30 +105,75 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
     // E[k]·h = δ, value k·h, and neighbouring steps at one lag read k and k+1 in any order. Steps whose k goes
     // against the trend tell the second apart; without any, the first; with one, their middle (k − ¼)h. The
     // systematic σ below covers the reading either way.
-    double lat = 0, slope = 0, ss = 0;
-    fit(0.25, lat, slope, ss);
-    int against = 0;
-    for (std::size_t i = 0; i + 1 < n; ++i) {
-      const double dk = lag[s][i + 1] - lag[s][i];
-      if (slope > 0 ? dk < 0 : slope < 0 ? dk > 0 : dk != 0) ++against;
+    auto line = [&](double& lat, double& slope, double& offset) {
+      if (!fit(0.25, lat, slope)) return false;
+      int against = 0;
+      std::size_t prev = n;
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!in[i]) continue;
+        if (prev < n) {
+          const double dk = lag[s][i] - lag[s][prev];
+          if (slope > 0 ? dk < 0 : slope < 0 ? dk > 0 : dk != 0) ++against;
+        }
+        prev = i;
+      }
+      offset = against == 0 ? 0.5 : against >= 2 ? 0.0 : 0.25;
+      return fit(offset, lat, slope);
+    };
+    // A step the output misreads by more than a sample off the line of the others (the input moving on a few rows
+    // after a short pose, a transient of the fixture) is left out: on a line the readings scatter within ±h (a
+    // whole-sample schedule: ±h/2), so a residual beyond max(2h, 3 robust σ) is not this clock. Without the trim,
+    // a handful of such steps lifted the scatter of 221 good ones above h and the probe was dropped (varied4
+    // random-2: a 24 ppm accelerometer clock, 0.23 s by the end, left unexplained at held-out χ²/dof 3e4).
+    double lat = 0, slope = 0, offset = 0;
+    bool ok = line(lat, slope, offset);
+    std::vector<double> e(n), a;
+    for (int iter = 0; ok && iter < 8; ++iter) {
+      a.clear();
+      for (std::size_t i = 0; i < n; ++i) {
+        e[i] = (lag[s][i] - offset) * h - (lat + slope * ts[s][i]);
+        if (in[i]) a.push_back(std::fabs(e[i]));
+      }
+      std::nth_element(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2), a.end());
+      const double cut = std::max(2.0 * h, 3.0 * 1.4826 * a[a.size() / 2]);
+      bool changed = false;
+      for (std::size_t i = 0; i < n; ++i) {
+        const char k = std::fabs(e[i]) <= cut ? 1 : 0;
+        changed = changed || k != in[i];
+        in[i] = k;
+      }
+      if (!changed) break;
+      ok = line(lat, slope, offset);
     }
-    const double offset = against == 0 ? 0.5 : against >= 2 ? 0.0 : 0.25;
-    fit(offset, lat, slope, ss);
+    if (!ok) continue;
+    double ss = 0, t0 = 0, t1 = 0;
+    bool seen = false;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!in[i]) continue;
+      const double ei = (lag[s][i] - offset) * h - (lat + slope * ts[s][i]);
+      ss += ei * ei;
+      if (!seen) t0 = ts[s][i];
+      t1 = ts[s][i];
+      seen = true;
+    }
+    const int n_in = static_cast<int>(S);
+    r.n_outliers = static_cast<int>(n) - n_in;
     r.latency_s = lat;
     r.ppm = slope * 1e6;
-    r.rms_s = std::sqrt(ss / static_cast<double>(n));
+    r.rms_s = std::sqrt(ss / S);
     // σ: the scatter about the line as if independent, plus a systematic part. The places of the changes within
     // their row intervals need not be independent (segments of one length: the place creeps by the same fraction
     // of a sample from step to step), so each step's error, within ±h/2, may be shared: up to h/2 on the latency
     // (uniform, h²/12) and up to h over the steps' time span on the slope (uniform ±h/span, h²/(3·span²)).
-    const double s2 = std::max(ss / static_cast<double>(n - 2), h * h / 12.0);
-    const double span = ts[s][n - 1] - ts[s][0];
+    const double s2 = std::max(n_in > 2 ? ss / (S - 2.0) : h * h, h * h / 12.0);
+    const double span = t1 - t0;
     r.sigma_latency_s = std::sqrt(s2 * Stt / det + h * h / 12.0);
     r.sigma_ppm = 1e6 * std::sqrt(s2 * S / det + (span > 0 ? h * h / (3.0 * span * span) : 1.0));
     r.max_abs_s = std::max(std::fabs(r.latency_s), std::fabs(r.latency_s + slope * duration_s));
     // A consistent line (brackets scatter ±h/2 about it) that reaches a whole sample somewhere: beyond what
-    // the linear term and the ±h exclusion handle from the logged time.
-    r.valid = r.rms_s <= h && r.max_abs_s >= h;
+    // the linear term and the ±h exclusion handle from the logged time. Most steps must be on it: a line through
+    // a few of them, the rest misread, is not a clock.
+    r.valid = n_in >= 6 && 5 * n_in >= 4 * static_cast<int>(n) && r.rms_s <= h && r.max_abs_s >= h;
   }
   return out;
 }

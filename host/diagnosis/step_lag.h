@@ -71,15 +71,16 @@ bool reference_kink(const R* pp, const R* p, const R& a, const R& b, const R* n,
 // lag to one sample interval h, δ ∈ ((n−1)h, nh] when the pose changes at the row that shows the new pose (the
 // convention of ShiftedReference), or gives δ = E[n]·h when the change falls anywhere within the row interval
 // (blind logs whose segments are not whole samples); which of the two, the steps themselves say (step_lag.cpp).
-// A line latency + ppm·t through these brackets is a starting point for the re-evaluation, which then refines
-// it on the motion (sines) with the linear term; the ±h exclusion around each shifted step absorbs what is left
-// of the bracket.
+// A line latency + ppm·t through these brackets (steps misread by more than a sample off it left out) is a
+// starting point for the re-evaluation, which then refines it on the motion (sines) with the linear term; the
+// ±h exclusion around each shifted step absorbs what is left of the bracket.
 // Below a sample interval the probe still tells the sign: with no lag, the output sample stamped at the row
 // that first shows the new pose reads the new pose whatever the step's place in the row interval (and the
 // one before reads the old), so a step read late (n_old ≥ 1) or early (n_new ≥ 1) is a direct observation
-// of a lag. A full-step misreading cannot come from noise (the thresholds below), so a tenth of the steps
-// read late, at least 6, and none read early, is decisive (`sign`), where the sines alone may leave a latency
-// of a fraction of a sample below significance.
+// of a lag. A full-step misreading cannot come from noise (the thresholds below), so 10 steps read late, or 6
+// and a tenth of them, and none read early, is decisive (`sign`), where the sines alone may leave a latency
+// of a fraction of a sample below significance. O(n_samples + n_steps · W) time (each step scans its window of
+// W samples), O(W + n_steps) memory.
 struct StepLag {
   bool valid = false;
   double latency_s = 0, ppm = 0, max_abs_s = 0, rms_s = 0;
@@ -87,6 +88,7 @@ struct StepLag {
   // plus what the steps may share (the place of the change within a row interval: step_lag.cpp).
   double sigma_latency_s = 0, sigma_ppm = 0;
   int n_steps = 0, n_late = 0, n_early = 0, sign = 0;
+  int n_outliers = 0;  // steps left out of the line: misread by more than a sample off it (step_lag.cpp)
   int max_n = 0;  // the most samples any one step was read late or early: how far its misreading reaches
 };
 

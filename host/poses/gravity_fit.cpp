@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "host/estimator/kfold.h"
 #include "host/model/measure.h"
 
 namespace imuforge::poses {
@@ -169,7 +170,9 @@ double heldout_gravity_rms(const std::vector<Pose>& poses, double g, const std::
   double ss = 0;
   for (std::size_t k = 0; k < folds; ++k) {
     std::vector<Pose> train, test;
-    for (std::size_t i = 0; i < n; ++i) (i % folds == k ? test : train).push_back(poses[i]);
+    for (std::size_t i = 0; i < n; ++i)
+      (estimator::interleaved_fold(static_cast<int>(i), static_cast<int>(folds)) == static_cast<int>(k) ? test : train)
+          .push_back(poses[i]);
     const GravityFit f = fit_from(train, g, active, extra, th0);
     for (const Pose& p : test) {
       const double e = f.apply(p.acc).norm() - g;

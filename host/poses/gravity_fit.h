@@ -55,8 +55,10 @@ std::vector<model::ParamId> gravity_candidate_terms();
 // every remaining candidate, refits with each pose (or fold of poses) withheld in turn and scores |f̂|−g
 // on the withheld poses; the candidate with the lowest held-out RMS is added when that RMS is below
 // (1 − min_gain) × the current one and the fit keeps ≥ min_dof degrees of freedom. Nothing is tried with
-// fewer than min_poses poses. Folds: kHeldoutFolds interleaved in time (pose i in fold i mod K; 12
-// rather than leave-one-out keeps the ~15 candidates × a few rounds well under a second).
+// fewer than min_poses poses. Folds: kHeldoutFolds interleaved in time (estimator::interleaved_fold, not
+// i mod K, which puts every repeat of one orientation in one fold when a tumble of 6 or 12 poses is repeated:
+// that fold then tests an orientation no training pose has); 12 rather than leave-one-out keeps the ~15
+// candidates × a few rounds well under a second.
 constexpr std::size_t kHeldoutFolds = 12;
 struct TermSelectOptions {
   int min_poses = 20;
