@@ -127,11 +127,12 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
     // random-2: a 24 ppm accelerometer clock, 0.23 s by the end, left unexplained at held-out χ²/dof 3e4).
     double lat = 0, slope = 0, offset = 0;
     bool ok = line(lat, slope, offset);
+    auto resid = [&](std::size_t i) { return (lag[s][i] - offset) * h - (lat + slope * ts[s][i]); };
     std::vector<double> e(n), a;
     for (int iter = 0; ok && iter < 8; ++iter) {
       a.clear();
       for (std::size_t i = 0; i < n; ++i) {
-        e[i] = (lag[s][i] - offset) * h - (lat + slope * ts[s][i]);
+        e[i] = resid(i);
         if (in[i]) a.push_back(std::fabs(e[i]));
       }
       std::nth_element(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2), a.end());
@@ -147,25 +148,22 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
     }
     if (!ok) continue;
     double ss = 0, t0 = 0, t1 = 0;
-    bool seen = false;
+    int n_in = 0;
     for (std::size_t i = 0; i < n; ++i) {
       if (!in[i]) continue;
-      const double ei = (lag[s][i] - offset) * h - (lat + slope * ts[s][i]);
-      ss += ei * ei;
-      if (!seen) t0 = ts[s][i];
+      ss += resid(i) * resid(i);
+      if (n_in++ == 0) t0 = ts[s][i];
       t1 = ts[s][i];
-      seen = true;
     }
-    const int n_in = static_cast<int>(S);
     r.n_outliers = static_cast<int>(n) - n_in;
     r.latency_s = lat;
     r.ppm = slope * 1e6;
-    r.rms_s = std::sqrt(ss / S);
+    r.rms_s = std::sqrt(ss / n_in);
     // σ: the scatter about the line as if independent, plus a systematic part. The places of the changes within
     // their row intervals need not be independent (segments of one length: the place creeps by the same fraction
     // of a sample from step to step), so each step's error, within ±h/2, may be shared: up to h/2 on the latency
     // (uniform, h²/12) and up to h over the steps' time span on the slope (uniform ±h/span, h²/(3·span²)).
-    const double s2 = std::max(n_in > 2 ? ss / (S - 2.0) : h * h, h * h / 12.0);
+    const double s2 = std::max(n_in > 2 ? ss / (n_in - 2.0) : h * h, h * h / 12.0);
     const double span = t1 - t0;
     r.sigma_latency_s = std::sqrt(s2 * Stt / det + h * h / 12.0);
     r.sigma_ppm = 1e6 * std::sqrt(s2 * S / det + (span > 0 ? h * h / (3.0 * span * span) : 1.0));
