@@ -180,6 +180,7 @@ int run_diagnose(int argc, char** argv) {
         }
     }
     std::unique_ptr<diagnosis::ReferenceFreeSource> rf;
+    std::unique_ptr<diagnosis::ReferenceSegmentSource> segs;
     if (mode == "reference-free" || (mode == "auto" && !any_ref)) {
       rf = std::make_unique<diagnosis::ReferenceFreeSource>(*src, real.meta().gravity_mps2, poses::DetectOptions{},
                                                             real.meta().accel_lsb_mps2, real.meta().gyro_lsb_rad_s,
@@ -196,7 +197,18 @@ int run_diagnose(int argc, char** argv) {
       return app::kExitFailed;
     }
 
+    if (!rf && any_ref) {
+      segs = std::make_unique<diagnosis::ReferenceSegmentSource>(*src);
+      if (segs->changes()) src = segs.get();
+    }
     diagnosis::DiagnosisResult r = diagnosis::diagnose(*src, base, opt);
+    if (segs && segs->derived())
+      r.warnings.push_back("the log's segment column carries no schedule (" + std::to_string(segs->logged_segments()) +
+                           " dwell indices): " + std::to_string(segs->derived_segments()) +
+                           " segments cut at the steps and kinks of the reference, which the folds withhold whole");
+    else if (segs && segs->split_segments() > 0)
+      r.warnings.push_back("the reference steps or kinks " + std::to_string(segs->split_segments()) +
+                           " times within a logged segment: each part withheld as a dwell of its own");
     if (rf) r.warnings.push_back("reference-free mode: references are pseudo-references from the gravity direction of each static pose; "
                                  "errors along a pose's own direction and all rate-dependent effects are invisible");
     std::error_code ec;

@@ -99,6 +99,9 @@ struct Options {
   // axis far above its noise does not outweigh the others (docs/diagnosis.md § 5). Off: raw χ² sums (before
   // stop 24).
   bool heldout_axis_scale = true;
+  // Timing's held-out gain is scored on the withheld segments' blocks instead of their means: u̇ averages out
+  // over a segment, so its means cannot see a latency (diagnose.cpp, score_one). Off: segment means (stop 30).
+  bool timing_heldout_blocks = true;
   // A determined magnitude (> 3σ) outside the plausible range (plausible_limit) disqualifies a candidate.
   bool check_plausibility = true;
   // An axis whose held-out χ²/dof (withheld segments) stays above this after selection is "unexplained".

@@ -3,7 +3,10 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <deque>
+#include <set>
 
+#include "host/diagnosis/step_lag.h"
 #include "host/poses/gravity_fit.h"
 #include <cmath>
 
@@ -49,6 +52,118 @@ bool PairedSource::next(Sample& s) {
     s.segment = q.segment;
   }
   if (!std::isfinite(s.temp_C)) s.temp_C = q.temp_C;
+  return true;
+}
+
+ReferenceSegmentSource::ReferenceSegmentSource(SampleSource& inner) : inner_(inner) {
+  struct Row {
+    double f[3], w[3];
+    long long row;  // row index in the log
+  };
+  std::set<int> ids;
+  std::deque<Row> win;  // the last rows of the current run of reference rows (at most 6)
+  long long run_n = 0;  // rows in the current run
+  long long done = 0;   // pairs (i, i+1) of the run already tested, i < done
+  bool any_ref = false;
+  // Tests the pair whose first row is run row i (in the window), with up to two rows on each side.
+  auto test = [&](long long i) {
+    const long long first = run_n - static_cast<long long>(win.size());  // run index of win.front()
+    auto at = [&](long long j) -> const Row* {
+      return j >= first && j < run_n ? &win[static_cast<std::size_t>(j - first)] : nullptr;
+    };
+    const Row* a = at(i);
+    const Row* b = at(i + 1);
+    if (!a || !b) return;
+    if (!(reference_step(at(i - 1), *a, *b, at(i + 2)) || reference_kink(at(i - 2), at(i - 1), *a, *b, at(i + 2), at(i + 3))))
+      return;
+    // One change can flag two neighbouring row pairs (a step into a tumble: the step, then the slope it starts);
+    // the first is where the new dwell begins, and a segment of one or two rows is no dwell.
+    if (!cuts_.empty() && b->row - cuts_.back() <= 2) return;
+    cuts_.push_back(b->row);
+  };
+  auto flush = [&]() {
+    for (; done + 1 < run_n; ++done) test(done);
+    win.clear();
+    run_n = done = 0;
+  };
+  inner_.rewind();
+  Sample s;
+  long long row = 0;
+  std::vector<long long> bounds;  // rows where the logged segment changes
+  int last = -2;
+  for (; inner_.next(s); ++row) {
+    if (s.segment >= 0 && ids.size() < 3) ids.insert(s.segment);
+    max_id_ = std::max(max_id_, s.segment);
+    if (s.segment != last) bounds.push_back(row);
+    last = s.segment;
+    if (!s.has_ref) {  // the diagnosis starts a new unit after rows without a reference itself
+      flush();
+      continue;
+    }
+    any_ref = true;
+    Row r;
+    for (int k = 0; k < 3; ++k) {
+      r.f[k] = s.f[k];
+      r.w[k] = s.w[k];
+    }
+    r.row = row;
+    win.push_back(r);
+    if (win.size() > 6) win.pop_front();
+    ++run_n;
+    // The pair (i, i+1) is tested once its two rows after b are in: i + 3 = newest.
+    for (; done + 3 < run_n; ++done) test(done);
+  }
+  flush();
+  logged_ = static_cast<int>(ids.size());
+  derived_ = any_ref && logged_ < 3;
+  inner_.rewind();
+  if (!derived_) {
+    // A cut within two rows of a logged boundary is that boundary (a sine's last row before its segment ends
+    // bends the same change a row early on blindgen's logs), not a dwell of its own.
+    cuts_.erase(std::remove_if(cuts_.begin(), cuts_.end(),
+                               [&](long long c) {
+                                 const auto it = std::lower_bound(bounds.begin(), bounds.end(), c - 2);
+                                 return it != bounds.end() && *it <= c + 2;
+                               }),
+                cuts_.end());
+    // Count the splits the replay makes.
+    rewind();
+    Sample q;
+    while (next(q)) {
+    }
+    split_ = new_id_ - (max_id_ + 1);
+    rewind();
+  }
+}
+
+void ReferenceSegmentSource::rewind() {
+  inner_.rewind();
+  row_ = 0;
+  next_cut_ = 0;
+  seg_ = 0;
+  last_logged_ = -2;
+  out_ = -1;
+  new_id_ = max_id_ + 1;
+}
+
+bool ReferenceSegmentSource::next(Sample& s) {
+  if (!inner_.next(s)) return false;
+  bool cut = false;
+  while (next_cut_ < cuts_.size() && cuts_[next_cut_] <= row_) {
+    cut = cut || cuts_[next_cut_] == row_;
+    ++next_cut_;
+  }
+  if (derived_) {
+    seg_ += cut ? 1 : 0;
+    s.segment = seg_;
+  } else {
+    const int logged = s.segment;
+    if (logged != last_logged_) out_ = logged;
+    else if (cut && logged >= 0) out_ = new_id_++;
+    last_logged_ = logged;
+    s.segment = logged >= 0 ? out_ : logged;
+  }
+  ++row_;
   return true;
 }
 

@@ -39,6 +39,42 @@ class PairedSource : public SampleSource {
   long long row_ = 0;
 };
 
+// Segments from the reference where the log's schedule is missing or coarse. The diagnosis withholds whole
+// segments, so a log whose segment column carries no schedule (every row −1, what the format writes when none
+// is known, or fewer than three distinct dwell indices) could not be scored at all ("too short to tell"), and
+// one whose segments are coarser than its dwells (a generator numbering plateaus, or a whole tumble as one
+// segment) withholds far fewer, larger pieces than it holds dwells. Cuts are where the reference itself ends a
+// dwell: at each step or kink of the reference (step_lag.h, the criteria the timing path uses for an
+// instantaneous pose or rate change and for a table starting or stopping its acceleration).
+//   * no schedule: segments numbered from 0 at those cuts (derived());
+//   * a schedule: a segment that holds a cut after its first row continues under a new number (above every
+//     logged one) from that row on (split_segments() counts them); rows at −1 (the table moving) stay −1.
+// On logs whose segments already end at every step (blindgen's, imuforge simulate's) nothing changes. Rows without
+// a reference and gaps in time start a new unit in the diagnosis already.
+// Cost: at construction one streaming pass (six rows held), and with a schedule a second that counts the splits;
+// then O(1) per row. Memory: one index per cut and per logged segment boundary (during construction).
+class ReferenceSegmentSource : public SampleSource {
+ public:
+  explicit ReferenceSegmentSource(SampleSource& inner);
+  void rewind() override;
+  bool next(Sample& s) override;
+  bool derived() const { return derived_; }
+  bool changes() const { return derived_ || split_ > 0; }
+  int logged_segments() const { return logged_; }  // distinct dwell indices ≥ 0 in the log (counted up to 3)
+  int derived_segments() const { return derived_ ? static_cast<int>(cuts_.size()) + 1 : 0; }
+  int split_segments() const { return split_; }    // logged segments split at a step or kink within them
+
+ private:
+  SampleSource& inner_;
+  bool derived_ = false;
+  int logged_ = 0, max_id_ = -1, split_ = 0;
+  std::vector<long long> cuts_;  // rows that start a new dwell (ascending)
+  // replay state
+  long long row_ = 0;
+  std::size_t next_cut_ = 0;
+  int seg_ = 0, last_logged_ = -2, out_ = -1, new_id_ = 0;
+};
+
 // Reference-free mode (Tedaldi et al., ICRA 2014 style), on the shared front end of host/poses: the one
 // static-pose detector (the poses `imuforge solve --mode reference-free` finds), and the one
 // gravity-magnitude fit of the accelerometer on the pose means (bias, 3 scales, 3 non-orthogonalities;

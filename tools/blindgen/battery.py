@@ -7,7 +7,7 @@ diagnosis against the acceptance figures of issue 12 (docs/diagnosis.md, "Blind 
   battery.py --imuforge build/host/bin/imuforge --suite full --work /tmp/blind       # the benchmark
   battery.py ... --suite holdout   # stochastic + mixed cases at seeds no change was tuned on (stop 24)
   battery.py ... --suite varied    # every kind on another lab's schedule (blindgen size 'varied', stop 25)
-  battery.py ... --suite varied2 / varied3 / varied4   # the same schedule at fresh seeds (stops 26, 29, 30)
+  battery.py ... --suite varied2 / varied3 / varied4 / varied5   # the same schedule at fresh seeds (stops 26, 29, 30, 31)
   battery.py ... --source simulate      # same sensors through `imuforge simulate` (catalog effects only)
   battery.py ... --floors tools/blindgen/floors-smoke.json   # exit 1 when a figure falls below its floor
 
@@ -128,6 +128,10 @@ def suite(name):
         # the varied schedule at new seeds (10500+), added at stop 30 and run on the stop-29 binary before any change
         # of that stop: weighted to multi-effect recall, the figure still short of the issue's
         return varied_fresh(10500, per_class_null=3, per_class_stoch=3, n_random=20, ooc_each=1)
+    if name == 'varied5':
+        # the varied schedule at new seeds (11000+), added at stop 31 and run on the stop-30 binary before any change
+        # of that stop: weighted to multi-effect recall
+        return varied_fresh(11000, per_class_null=3, per_class_stoch=3, n_random=25, ooc_each=1)
     if name != 'full':
         raise SystemExit('unknown suite ' + name)
     for s in range(1, 51):
@@ -493,7 +497,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
