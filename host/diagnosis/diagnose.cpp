@@ -225,6 +225,7 @@ struct Block {
   // mean features
   double t = 0, T = kNaN, Tdot = 0, d = 0, f[3] = {}, w[3] = {}, absw = 0;
   double ww[3] = {}, ff[3][3] = {};          // block means of ω_k² and f_k f_l (signatures)
+  double wq[3][3] = {};                      // block means of ω_k ω_l of the gyro's reference as evaluated (mount)
   double sin_a[3] = {}, cos_a[3] = {};       // block means of sin/cos of the reported table angles
   long n_a[3] = {};
   bool is_static = false;
@@ -409,6 +410,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       back = std::max(back, shift[s].at(tt) + shift[s].step_margin_s + 6.0 / p0.fs);
     }
   ShiftedReference src(src_in, ahead, back, p0.fs);
+  const bool mount = opt.mount_rotation_rad[0] != 0.0 || opt.mount_rotation_rad[1] != 0.0 || opt.mount_rotation_rad[2] != 0.0;
   Pass1 out;
   const double dur = p0.t_last - p0.t_first;
   const double min_block_s = std::max(2.0 / p0.fs, dur / std::max(1, opt.max_blocks));
@@ -497,6 +499,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       b.f[k] /= n;
       b.w[k] /= n;
       b.ww[k] /= n;
+    for (int l = 0; l < 3; ++l) b.wq[k][l] /= n;
       for (int l = 0; l < 3; ++l) b.ff[k][l] /= n;
       if (b.n_a[k] > 0) {
         b.sin_a[k] /= static_cast<double>(b.n_a[k]);
@@ -626,6 +629,14 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         }
         acc.T0 = cur.temp_C;
       }
+      // The case sits rotated on the fixture by δ (Options::mount_rotation_rad): the regressors see the input in
+      // the case, u + δ × u; the output is still compared with the reference (z above), whose δ × u the
+      // misalignment carries.
+      if (mount) {
+        const model::Vec3 dl(opt.mount_rotation_rad[0], opt.mount_rotation_rad[1], opt.mount_rotation_rad[2]);
+        for (auto& x : ins)
+          for (model::Vec3* v : {&x.f, &x.w, &x.fdot, &x.wdot}) *v += dl.cross(*v);
+      }
       Block& b = acc.b;
       if (want_regressors) {
         for (int s = 0; s < 2; ++s) {
@@ -673,6 +684,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         b.f[k] += cur.f[k];
         b.w[k] += cur.w[k];
         b.ww[k] += cur.w[k] * cur.w[k];
+        for (int l = 0; l < 3; ++l) b.wq[k][l] += ins[1].w[k] * ins[1].w[l];
         for (int l = 0; l < 3; ++l) b.ff[k][l] += cur.f[k] * cur.f[l];
         if (std::isfinite(cur.table_angle_rad[k])) {
           b.sin_a[k] += std::sin(cur.table_angle_rad[k]);
@@ -1813,6 +1825,77 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     te.sigma_ppm = swp > 0 ? 1.0 / std::sqrt(swp) : 1.0;
   }
 
+  // ---- Mount rotation (docs/diagnosis.md, "Mount rotation"). The case sits on the fixture rotated by a small δ
+  // that the fixture does not know. For the linear terms the misalignment carries it; a cross-coupling
+  // c_jk u_j u_k acts on the case's input, u + δ × u, and read against the fixture's leaves on axis j
+  // Σ_k c_jk [(δ × u)_j u_k + u_j (δ × u)_k]: squares and products of the inputs that no single catalog effect
+  // spans (varied5: 4 of 25 random cases with a false gyro scale_nonlinearity or scale_asymmetry beside a
+  // selected cross-coupling). With a gyro cross-coupling selected, δ is fitted here, jointly with the final
+  // model on each gyro axis (GLS under the axis's noise model) and shared by the three axes (the θ of each axis
+  // eliminated by its Schur complement); diagnose() re-runs with the reference rotated by it.
+  if (cur_effects.count({static_cast<int>(Sensor::kGyro), static_cast<int>(Effect::kCrossCoupling)})) {
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    // ε_imn: (e_m × ω)_i = Σ_n ε_imn ω_n.
+    auto eps = [](int i, int m, int n) { return (i == m || m == n || i == n) ? 0.0 : ((m - i + 3) % 3 == 1 ? 1.0 : -1.0); };
+    for (int j = 0; j < 3; ++j) {
+      const int a = 3 + j;
+      const auto& ad = ax[static_cast<std::size_t>(a)];
+      const Fit f = fit_axis(ad, cols_for(ad, cur), -1);
+      double c_j[3] = {0, 0, 0};  // ĉ_jk
+      for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) {
+        const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f.kept[static_cast<std::size_t>(i)])]);
+        if (pi.sensor == Sensor::kGyro && pi.effect == Effect::kCrossCoupling && pi.k >= 0 && pi.k < 3) c_j[pi.k] = f.theta[i];
+      }
+      const int P = static_cast<int>(f.kept.size());
+      Eigen::MatrixXd rows = design_rows(ad, f.kept, 3);
+      for (int b = 0; b < B; ++b) {
+        const auto& wq = blocks[static_cast<std::size_t>(b)].wq;
+        for (int m = 0; m < 3; ++m) {
+          double gm = 0;
+          for (int k = 0; k < 3; ++k) {
+            if (k == j || c_j[k] == 0.0) continue;
+            for (int n = 0; n < 3; ++n) gm += c_j[k] * (eps(j, m, n) * wq[n][k] + eps(k, m, n) * wq[j][n]);
+          }
+          rows(b, 1 + P + m) = gm;
+        }
+      }
+      const estimator::NormalEquations ne =
+          gls_normal_equations(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], &blk_seg);
+      // Reduced χ² of the final fit above 1: the δ information is scaled down by it (conservative).
+      const double s2 = std::max(1.0, f.rss / std::max(1.0, static_cast<double>(B - P)));
+      const Eigen::MatrixXd Htt = ne.info.topLeftCorner(P, P);
+      const Eigen::MatrixXd Htd = ne.info.topRightCorner(P, 3);
+      Eigen::Matrix3d Hdd = ne.info.bottomRightCorner(3, 3);
+      Eigen::Vector3d gd = ne.rhs.tail(3);
+      if (P > 0) {
+        const Eigen::LDLT<Eigen::MatrixXd> l(Htt);
+        Hdd -= Htd.transpose() * l.solve(Htd);
+        gd -= Htd.transpose() * l.solve(ne.rhs.head(P));
+      }
+      H += Hdd / s2;
+      g += gd / s2;
+    }
+    // A prior on the whole rotation (the rotation evaluated at + this correction) of o.mount_prior_rad per axis,
+    // a fixture's mounting repeatability: a rotation about an axis the campaign cannot separate from a
+    // cross-coupling component (about x, c_xz's term is c_xy's) stays at zero instead of following the rest.
+    const Eigen::Vector3d rot0(o.mount_rotation_rad[0], o.mount_rotation_rad[1], o.mount_rotation_rad[2]);
+    const double ip = 1.0 / (o.mount_prior_rad * o.mount_prior_rad);
+    const Eigen::Matrix3d Hp = H + ip * Eigen::Matrix3d::Identity();
+    const Eigen::LDLT<Eigen::Matrix3d> l(Hp);
+    const Eigen::Vector3d d = l.solve(g - ip * rot0);
+    if (d.allFinite() && l.info() == Eigen::Success) {
+      const Eigen::Matrix3d C = l.solve(Eigen::Matrix3d::Identity());
+      auto& me = R.mount_est;
+      me.valid = true;
+      for (int m = 0; m < 3; ++m) {
+        me.sigma_rad[static_cast<std::size_t>(m)] = std::sqrt(std::max(C(m, m), 0.0));
+        me.delta_rad[static_cast<std::size_t>(m)] = d[m];
+      }
+      me.chi2 = d.dot(H * d);
+    }
+  }
+
   // ---- Unexplained: axes still above their noise. Each selected effect of a sensor with such an axis is
   // judged on its own (leave-one-out on the held-out χ² excess, per axis): it stays when it is an
   // explanation somewhere. On an unexplained axis the held-out gain is contaminated by the signal no catalog
@@ -2564,6 +2647,58 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     R.timing_iterations = dropped && !moved ? ti : it;
     if (!moved && !dropped) break;
   }
+  // Mount rotation: where a gyro cross-coupling is selected, its quadratic terms say how the case sits on the
+  // fixture (diagnose_core). A first correction significant as a whole (χ² of 3 dof > 16.3, p 1e-3) within
+  // mount_max_rad re-runs the diagnosis with the reference rotated into the case; it is refined while the
+  // correction is significant (χ² > 11.3, p 0.01). The rotated diagnosis is kept unless it leaves more axes
+  // unexplained. Measured (stop 31): on varied5 random-3, -7, -15, -17 and varied2 random-4 the false gyro
+  // scale_nonlinearity / scale_asymmetry go; about the axes the rates pair with the cross-coupling the estimate
+  // is within 0.1 mrad of blindgen's mount error, about the others the prior holds it (docs/diagnosis.md).
+  {
+    std::array<double, 3> rot{};
+    const DiagnosisResult R0 = R;
+    for (int it = 0; it < opt.max_mount_iterations; ++it) {
+      if (std::getenv("IMUFORGE_DIAG_TRACE"))
+        std::fprintf(stderr, "mount it %d valid %d chi2 %g d %g %g %g sig %g %g %g\n", it, R.mount_est.valid, R.mount_est.chi2, R.mount_est.delta_rad[0], R.mount_est.delta_rad[1], R.mount_est.delta_rad[2], R.mount_est.sigma_rad[0], R.mount_est.sigma_rad[1], R.mount_est.sigma_rad[2]);
+      const auto& me = R.mount_est;
+      if (!me.valid || !(me.chi2 > (it == 0 ? 16.27 : 11.34))) break;
+      std::array<double, 3> next = rot;
+      double mx = 0;
+      for (int m = 0; m < 3; ++m) {
+        next[static_cast<std::size_t>(m)] += me.delta_rad[static_cast<std::size_t>(m)];
+        mx = std::max(mx, std::fabs(next[static_cast<std::size_t>(m)]));
+      }
+      if (!(mx <= opt.mount_max_rad)) break;
+      rot = next;
+      o.mount_rotation_rad = rot;
+      const int ti = R.timing_iterations;
+      R = diagnose_core(src, base, o, shift);
+      R.timing_iterations = ti;
+      R.mount_iterations = it + 1;
+    }
+    if (R.mount_iterations > 0 && R.unexplained.size() > R0.unexplained.size()) {
+      char buf[320];
+      std::snprintf(buf, sizeof buf,
+                    "a rotation of the case on the fixture by (%.2g, %.2g, %.2g) mrad was estimated from the gyro cross_coupling "
+                    "but not used: evaluated there, more axes stay unexplained",
+                    1e3 * rot[0], 1e3 * rot[1], 1e3 * rot[2]);
+      R = R0;
+      rot = {};
+      o.mount_rotation_rad = rot;
+      probe_notes.push_back(buf);
+    }
+    R.mount_rotation_rad = rot;
+    if (R.mount_iterations > 0) {
+      const auto& sg = R.mount_est.sigma_rad;
+      char buf[400];
+      std::snprintf(buf, sizeof buf,
+                    "the case sits rotated on the fixture by (%.2g +/- %.2g, %.2g +/- %.2g, %.2g +/- %.2g) mrad about x, y, z, "
+                    "from the selected gyro cross_coupling's quadratic terms (prior %.2g mrad): the catalog's terms are "
+                    "evaluated on the input in the case",
+                    1e3 * rot[0], 1e3 * sg[0], 1e3 * rot[1], 1e3 * sg[1], 1e3 * rot[2], 1e3 * sg[2], 1e3 * opt.mount_prior_rad);
+      probe_notes.push_back(buf);
+    }
+  }
   // Whole-log wander. The static dwells fit the bias wander only up to their own length; with the final model,
   // the whole log's block means say how large it is over the hours between plateaus (REML, noise_model.h). Where
   // that is significantly more (Δ(−2 log L) > 3.84) than the likelihood carried, but not more than
@@ -2595,9 +2730,12 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
         const TimeShift none[2];
         first = diagnose_core(src, base, of, none);
       }
-      const int ti = R.timing_iterations;
+      const int ti = R.timing_iterations, mi = R.mount_iterations;
+      const auto mr = R.mount_rotation_rad;
       R = diagnose_core(src, base, ow, shift);
       R.timing_iterations = ti;
+      R.mount_iterations = mi;
+      R.mount_rotation_rad = mr;
       // An adopted axis is not re-estimated: it keeps the estimate that adopted it.
       for (std::size_t a = 0; a < static_cast<std::size_t>(kNumAxes); ++a)
         if (R.wander[a].adopted) {

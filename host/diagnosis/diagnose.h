@@ -112,6 +112,16 @@ struct Options {
   double unexplained_keep_frac = 0.2;
   // Effects in the model from the start and never dropped (set internally: timing after re-evaluation).
   std::vector<std::pair<model::Sensor, model::Effect>> forced;
+  // Rotation of the IMU case on the fixture (small angles about x, y, z, rad; set internally by diagnose()):
+  // the catalog's regressors are evaluated on the reference rotated into the case, u + δ × u. The linear part of
+  // that rotation is the misalignment's; the nonlinear terms are where it shows (cross-coupling c_jk u_j u_k
+  // read against the fixture's frame leaves c_jk·δ·u² terms that a scale_nonlinearity, a scale_asymmetry or a
+  // g2_sensitivity then fits: docs/diagnosis.md, "Mount rotation").
+  std::array<double, 3> mount_rotation_rad{};
+  // Estimate that rotation from a selected cross-coupling and re-run the diagnosis with it (0 rounds: never).
+  int max_mount_iterations = 2;
+  double mount_prior_rad = 1e-3;  // prior σ per axis of that rotation (a fixture's mounting repeatability)
+  double mount_max_rad = 5e-3;    // a larger estimate is not a mount: not used
   double T_ref_C = 25.0;
   double hysteresis_threshold_C = 0.5;
   double dTdt_window_s = 10.0;
@@ -349,6 +359,17 @@ struct DiagnosisResult {
     double latency_s = 0, ppm = 0, sigma_latency_s = 0, sigma_ppm = 0;
   };
   std::array<TimingEstimate, 2> timing_est;  // selected timing correction (accel, gyro), before withdrawal
+  // The case's rotation on the fixture, from the selected gyro cross-coupling's quadratic terms (diagnose.cpp,
+  // mount_estimate): the correction to Options::mount_rotation_rad this run was evaluated at, its covariance's
+  // diagonal, and its χ² (3 dof) against no correction. valid: a gyro cross-coupling is selected.
+  struct MountEstimate {
+    bool valid = false;
+    std::array<double, 3> delta_rad{}, sigma_rad{};
+    double chi2 = 0;
+  };
+  MountEstimate mount_est;
+  std::array<double, 3> mount_rotation_rad{};  // the rotation the reference was evaluated at (0: none)
+  int mount_iterations = 0;
   std::vector<StochasticScore> stochastic;
   std::vector<Cell> cells;
   std::vector<ParamEstimate> final_params; // the augmented model fitted on all data

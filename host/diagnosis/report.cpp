@@ -255,6 +255,10 @@ nlohmann::json to_json(const DiagnosisResult& r) {
     un.push_back({{"axis", x.axis}, {"chi2_dof_after", num(x.chi2_dof_after)}, {"signature", sig}, {"withdrawn", x.withdrawn}, {"basis", x.basis}});
   }
   j["unexplained"] = un;
+  if (r.mount_iterations > 0)
+    j["mount_rotation"] = {{"rad", {num(r.mount_rotation_rad[0]), num(r.mount_rotation_rad[1]), num(r.mount_rotation_rad[2])}},
+                           {"sigma_rad", {num(r.mount_est.sigma_rad[0]), num(r.mount_est.sigma_rad[1]), num(r.mount_est.sigma_rad[2])}},
+                           {"iterations", r.mount_iterations}};
   j["timing_shift"] = {{"accel", {{"latency_s", num(r.timing_shift_latency_s[0])}, {"ppm", num(r.timing_shift_ppm[0])}}},
                        {"gyro", {{"latency_s", num(r.timing_shift_latency_s[1])}, {"ppm", num(r.timing_shift_ppm[1])}}},
                        {"iterations", r.timing_iterations}};

@@ -1293,6 +1293,66 @@ TEST(DiagnosisPipeline, ASubSampleLatencyOnWholeSinePeriodsIsJudgedOnTheBlocks) 
   }
 }
 
+// The case sits rotated on the fixture by δ = (0, 0.5, −0.3) mrad, unknown to it, and the gyro has a cross-coupling
+// c_xz = c_zx = 3e-3 1/(rad/s) acting on the input in the case, u + δ × u. Read against the fixture's frame the
+// cross-coupling leaves c·δ·u² terms (varied5: false scale_nonlinearity / scale_asymmetry beside a selected
+// cross-coupling in 4 of 25 random cases). Hand-made log, independent of host/sim: rate runs of 2–8 rad/s
+// about x, y, z and the diagonals between static poses. With the rotation estimated from the cross-coupling's
+// quadratic terms, the cross-coupling is selected alone and the rotation about y and z is found within 3σ.
+TEST(DiagnosisPipeline, ACrossCouplingSeenThroughAMountRotationIsNotANonlinearity) {
+  const double seg_s = 4.0037, fs = 100.0, g = 9.80665;
+  const int n_seg = 240;
+  const double delta[3] = {0.0, 0.5e-3, -0.3e-3}, c = 3e-3;
+  const double axes[6][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0.7071, 0, 0.7071}, {0.7071, 0.7071, 0}, {0, 0.7071, 0.7071}};
+  const double faces[6][3] = {{0, 0, -g}, {0, 0, g}, {0, -g, 0}, {0, g, 0}, {-g, 0, 0}, {g, 0, 0}};
+  std::mt19937_64 rng(31);
+  std::normal_distribution<double> n01;
+  std::vector<Sample> log;
+  const int n = static_cast<int>(n_seg * seg_s * fs);
+  for (int i = 0; i < n; ++i) {
+    const int k = static_cast<int>(std::floor(i / fs / seg_s));
+    Sample s = referenced_sample(i / fs, k);
+    for (int j = 0; j < 3; ++j) s.f[j] = faces[(k / 2) % 6][j], s.w[j] = 0.0;
+    if (k % 2) {  // a rate run: axis k/2 mod 6, rate ±2…8 rad/s
+      const double r = (2.0 + 2.0 * ((k / 12) % 4)) * ((k / 2) % 2 ? -1.0 : 1.0);
+      for (int j = 0; j < 3; ++j) s.w[j] = r * axes[(k / 2 + k / 24) % 6][j];
+    }
+    double wc[3];  // the input in the case
+    wc[0] = s.w[0] + delta[1] * s.w[2] - delta[2] * s.w[1];
+    wc[1] = s.w[1] + delta[2] * s.w[0] - delta[0] * s.w[2];
+    wc[2] = s.w[2] + delta[0] * s.w[1] - delta[1] * s.w[0];
+    for (int j = 0; j < 3; ++j) s.y[j] = s.f[j] + 1e-3 * n01(rng);
+    s.y[3] = wc[0] + c * wc[0] * wc[2] + 1e-4 * n01(rng);
+    s.y[4] = wc[1] + 1e-4 * n01(rng);
+    s.y[5] = wc[2] + c * wc[2] * wc[0] + 1e-4 * n01(rng);
+    log.push_back(s);
+  }
+  for (const int iterations : {0, 4}) {
+    VectorSource src(log);
+    Options o;
+    o.max_mount_iterations = iterations;
+    const DiagnosisResult r = diagnose(src, basic_model(), o);
+    std::set<std::string> sel;
+    for (const auto& st : r.selected) sel.insert(st.sensor + "." + st.effect);
+    EXPECT_TRUE(sel.count("gyro.cross_coupling"));
+    if (iterations == 0) {
+      // What the fixture's frame makes of it (the defect this guards against): something more than the coupling.
+      // (here a scale_asymmetry; with the rotation estimated, 0.49 and −0.31 mrad ± 0.01 and 0.06 about y and z,
+      // the cross_coupling stands alone)
+      EXPECT_TRUE(sel.count("gyro.scale_asymmetry") || sel.count("gyro.scale_nonlinearity"));
+      continue;
+    }
+    EXPECT_EQ(sel, std::set<std::string>{"gyro.cross_coupling"});
+    EXPECT_GT(r.mount_iterations, 0);
+    for (int m = 0; m < 3; ++m) {
+      const auto um = static_cast<std::size_t>(m);
+      EXPECT_LT(std::fabs(r.mount_rotation_rad[um] - delta[m]), 3.0 * r.mount_est.sigma_rad[um] + 2e-5)
+          << m << ": " << r.mount_rotation_rad[um] << " +/- " << r.mount_est.sigma_rad[um];
+    }
+    EXPECT_TRUE(r.unexplained.empty());
+  }
+}
+
 // A log whose segment column carries no schedule (−1 on every row: what the format writes when none is known)
 // could not be scored at all: the folds withhold whole segments. ReferenceSegmentSource cuts segments where the
 // reference steps or kinks, and the diagnosis then says what it says on the same log with its schedule; so it
