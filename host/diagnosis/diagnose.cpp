@@ -11,6 +11,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <optional>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -499,7 +500,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       b.f[k] /= n;
       b.w[k] /= n;
       b.ww[k] /= n;
-    for (int l = 0; l < 3; ++l) b.wq[k][l] /= n;
+      for (int l = 0; l < 3; ++l) b.wq[k][l] /= n;
       for (int l = 0; l < 3; ++l) b.ff[k][l] /= n;
       if (b.n_a[k] > 0) {
         b.sin_a[k] /= static_cast<double>(b.n_a[k]);
@@ -2656,7 +2657,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   // is within 0.1 mrad of blindgen's mount error, about the others the prior holds it (docs/diagnosis.md).
   {
     std::array<double, 3> rot{};
-    const DiagnosisResult R0 = R;
+    std::optional<DiagnosisResult> R0;  // the unrotated result, kept once a rotated run replaces it
     for (int it = 0; it < opt.max_mount_iterations; ++it) {
       if (std::getenv("IMUFORGE_DIAG_TRACE"))
         std::fprintf(stderr, "mount it %d valid %d chi2 %g d %g %g %g sig %g %g %g\n", it, R.mount_est.valid, R.mount_est.chi2, R.mount_est.delta_rad[0], R.mount_est.delta_rad[1], R.mount_est.delta_rad[2], R.mount_est.sigma_rad[0], R.mount_est.sigma_rad[1], R.mount_est.sigma_rad[2]);
@@ -2671,18 +2672,19 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       if (!(mx <= opt.mount_max_rad)) break;
       rot = next;
       o.mount_rotation_rad = rot;
+      if (!R0) R0 = R;
       const int ti = R.timing_iterations;
       R = diagnose_core(src, base, o, shift);
       R.timing_iterations = ti;
       R.mount_iterations = it + 1;
     }
-    if (R.mount_iterations > 0 && R.unexplained.size() > R0.unexplained.size()) {
+    if (R0 && R.unexplained.size() > R0->unexplained.size()) {
       char buf[320];
       std::snprintf(buf, sizeof buf,
                     "a rotation of the case on the fixture by (%.2g, %.2g, %.2g) mrad was estimated from the gyro cross_coupling "
                     "but not used: evaluated there, more axes stay unexplained",
                     1e3 * rot[0], 1e3 * rot[1], 1e3 * rot[2]);
-      R = R0;
+      R = std::move(*R0);
       rot = {};
       o.mount_rotation_rad = rot;
       probe_notes.push_back(buf);

@@ -59,7 +59,9 @@ ReferenceSegmentSource::ReferenceSegmentSource(SampleSource& inner) : inner_(inn
   struct Row {
     double f[3], w[3];
     long long row;  // row index in the log
+    int segment;    // as logged
   };
+  std::vector<int> cut_segment;  // the logged segment at each cut
   std::set<int> ids;
   std::deque<Row> win;  // the last rows of the current run of reference rows (at most 6)
   long long run_n = 0;  // rows in the current run
@@ -80,6 +82,7 @@ ReferenceSegmentSource::ReferenceSegmentSource(SampleSource& inner) : inner_(inn
     // the first is where the new dwell begins, and a segment of one or two rows is no dwell.
     if (!cuts_.empty() && b->row - cuts_.back() <= 2) return;
     cuts_.push_back(b->row);
+    cut_segment.push_back(b->segment);
   };
   auto flush = [&]() {
     for (; done + 1 < run_n; ++done) test(done);
@@ -107,6 +110,7 @@ ReferenceSegmentSource::ReferenceSegmentSource(SampleSource& inner) : inner_(inn
       r.w[k] = s.w[k];
     }
     r.row = row;
+    r.segment = s.segment;
     win.push_back(r);
     if (win.size() > 6) win.pop_front();
     ++run_n;
@@ -116,24 +120,21 @@ ReferenceSegmentSource::ReferenceSegmentSource(SampleSource& inner) : inner_(inn
   flush();
   logged_ = static_cast<int>(ids.size());
   derived_ = any_ref && logged_ < 3;
-  inner_.rewind();
   if (!derived_) {
     // A cut within two rows of a logged boundary is that boundary (a sine's last row before its segment ends
-    // bends the same change a row early on blindgen's logs), not a dwell of its own.
-    cuts_.erase(std::remove_if(cuts_.begin(), cuts_.end(),
-                               [&](long long c) {
-                                 const auto it = std::lower_bound(bounds.begin(), bounds.end(), c - 2);
-                                 return it != bounds.end() && *it <= c + 2;
-                               }),
-                cuts_.end());
-    // Count the splits the replay makes.
-    rewind();
-    Sample q;
-    while (next(q)) {
+    // bends the same change a row early on blindgen's logs), not a dwell of its own. Any other cut inside a
+    // logged dwell (not a −1 stretch) splits it.
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < cuts_.size(); ++i) {
+      const long long c = cuts_[i];
+      const auto it = std::lower_bound(bounds.begin(), bounds.end(), c - 2);
+      if (it != bounds.end() && *it <= c + 2) continue;
+      cuts_[kept++] = c;
+      split_ += cut_segment[i] >= 0 ? 1 : 0;
     }
-    split_ = new_id_ - (max_id_ + 1);
-    rewind();
+    cuts_.resize(kept);
   }
+  rewind();
 }
 
 void ReferenceSegmentSource::rewind() {

@@ -51,8 +51,8 @@ class PairedSource : public SampleSource {
 //     logged one) from that row on (split_segments() counts them); rows at −1 (the table moving) stay −1.
 // On logs whose segments already end at every step (blindgen's, imuforge simulate's) nothing changes. Rows without
 // a reference and gaps in time start a new unit in the diagnosis already.
-// Cost: at construction one streaming pass (six rows held), and with a schedule a second that counts the splits;
-// then O(1) per row. Memory: one index per cut and per logged segment boundary (during construction).
+// Cost: one streaming pass at construction (six rows held), then O(1) per row. Memory: one index per cut, and
+// during construction one per logged segment boundary.
 class ReferenceSegmentSource : public SampleSource {
  public:
   explicit ReferenceSegmentSource(SampleSource& inner);

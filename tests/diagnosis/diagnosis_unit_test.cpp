@@ -1042,6 +1042,15 @@ void cycling_reference(int k, double tau, bool with_sine, double* f, double* w) 
   }
 }
 
+// Reference (f, ω) at time t of n_seg segments of seg_s: segment k = floor(t / seg_s) (clamped), the cycle of
+// cycling_reference with sines.
+auto cycling_with_sines(double seg_s, int n_seg) {
+  return [seg_s, n_seg](double t, double* f, double* w) {
+    const int k = std::clamp(static_cast<int>(std::floor(t / seg_s)), 0, n_seg - 1);
+    cycling_reference(k, t - k * seg_s, true, f, w);
+  };
+}
+
 // A log of n_seg segments of seg_s at 100 Hz whose outputs read ref (t, f, ω) at t − δ_s(t), exactly, with
 // δ_s = lat_s + ppm_s·1e-6·t per sensor {accel, gyro}, plus white noise sigma_s per sample.
 template <class Ref>
@@ -1075,11 +1084,7 @@ TEST(DiagnosisPipeline, ClockErrorOfSeveralSamplesAtInstantaneousSteps) {
   const int n_seg = 120;
   const double lat[2] = {0.0, 1e-3}, ppm[2] = {-30.0, 50.0};  // accel early, gyro late: -14 ms, +25 ms at the end
   const double sigma[2] = {1e-3, 5e-4};  // per sample at 100 Hz: the automotive class (ARW 0.34 °/√h ≈ 7e-4 rad/s)
-  // Reference (f, ω) at time t: segment k = floor(t / seg_s), the cycle of cycling_reference with sines.
-  auto ref = [&](double t, double* f, double* w) {
-    const int k = std::clamp(static_cast<int>(std::floor(t / seg_s)), 0, n_seg - 1);
-    cycling_reference(k, t - k * seg_s, true, f, w);
-  };
+  const auto ref = cycling_with_sines(seg_s, n_seg);
   const std::vector<Sample> log = clocked_log(ref, seg_s, n_seg, lat, ppm, sigma, 5);
   VectorSource src(log);
   DiagnosisResult r = diagnose(src, basic_model(), Options{});
@@ -1248,10 +1253,7 @@ TEST(DiagnosisPipeline, GyroClockWithoutMotionWithinSegmentsKeepsTheStepsShift) 
 TEST(DiagnosisPipeline, ASubSampleLatencyOnWholeSinePeriodsIsJudgedOnTheBlocks) {
   const double seg_s = 4.0037;  // steps fall anywhere within a row interval; 2.0 periods of the 0.5 Hz sine
   const int n_seg = 120;
-  auto ref = [&](double t, double* f, double* w) {
-    const int k = std::clamp(static_cast<int>(std::floor(t / seg_s)), 0, n_seg - 1);
-    cycling_reference(k, t - k * seg_s, true, f, w);
-  };
+  const auto ref = cycling_with_sines(seg_s, n_seg);
   const double lat = 0.5e-3;
   const double lats[2] = {0.0, lat}, ppms[2] = {0.0, 0.0}, sigma[2] = {1e-3, 5e-4};
   const std::vector<Sample> log = clocked_log(ref, seg_s, n_seg, lats, ppms, sigma, 23);
@@ -1360,10 +1362,7 @@ TEST(DiagnosisPipeline, ACrossCouplingSeenThroughAMountRotationIsNotANonlinearit
 TEST(DiagnosisPipeline, SegmentsAreCutAtTheReferenceStepsWhenTheLogHasNoSchedule) {
   const double seg_s = 4.0037;
   const int n_seg = 96;
-  auto ref = [&](double t, double* f, double* w) {
-    const int k = std::clamp(static_cast<int>(std::floor(t / seg_s)), 0, n_seg - 1);
-    cycling_reference(k, t - k * seg_s, true, f, w);
-  };
+  const auto ref = cycling_with_sines(seg_s, n_seg);
   const double lats[2] = {0.0, 0.0}, ppms[2] = {0.0, 0.0}, sigma[2] = {1e-3, 5e-4};
   std::vector<Sample> log = clocked_log(ref, seg_s, n_seg, lats, ppms, sigma, 29);
   // A g-sensitivity for the diagnosis to find: 2e-4 (rad/s)/(m/s²) from f_x onto gyro.y.
@@ -1429,10 +1428,7 @@ TEST(DiagnosisPipeline, SegmentsAreCutAtTheReferenceStepsWhenTheLogHasNoSchedule
 TEST(DiagnosisPipeline, AClockReadingPastTheLastReferenceRowIsNotComparedWithAHeldReference) {
   const double seg_s = 4.5;  // the log ends where the sine's rate changes fastest (1.2 cos(π τ) at τ = 4.5 s)
   const int n_seg = 123;  // segment 122 is a sine (cycling_reference: k % 4 == 2)
-  auto ref = [&](double t, double* f, double* w) {
-    const int k = std::clamp(static_cast<int>(std::floor(t / seg_s)), 0, n_seg - 1);
-    cycling_reference(k, t - k * seg_s, true, f, w);
-  };
+  const auto ref = cycling_with_sines(seg_s, n_seg);
   const double lat[2] = {0.0, 0.0}, ppm[2] = {0.0, -150.0}, sigma[2] = {1e-3, 5e-4};
   const std::vector<Sample> log = clocked_log(ref, seg_s, n_seg, lat, ppm, sigma, 17);
   VectorSource src(log);
@@ -1453,10 +1449,7 @@ TEST(DiagnosisPipeline, AClockReadingPastTheLastReferenceRowIsNotComparedWithAHe
 TEST(DiagnosisPipeline, StepsMisreadForAnotherReasonDoNotHideTheClock) {
   const double seg_s = 4.0;
   const int n_seg = 120;
-  auto ref = [&](double t, double* f, double* w) {
-    const int k = std::clamp(static_cast<int>(std::floor(t / seg_s)), 0, n_seg - 1);
-    cycling_reference(k, t - k * seg_s, true, f, w);
-  };
+  const auto ref = cycling_with_sines(seg_s, n_seg);
   const double lat[2] = {0.0, 0.0}, ppm[2] = {40.0, 0.0}, sigma[2] = {1e-3, 5e-4};
   std::vector<Sample> log = clocked_log(ref, seg_s, n_seg, lat, ppm, sigma, 23);
   const int per_seg = static_cast<int>(seg_s * 100.0);
