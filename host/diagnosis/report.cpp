@@ -129,6 +129,10 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       } else {
         line += "explained by";
         for (std::size_t i = 0; i < by.size(); ++i) line += (i ? ", " : " ") + by[i];
+        // The rotation the gyro cross-coupling's terms were evaluated at belongs to its explanation (diagnose.cpp).
+        if (r.mount_iterations > 0 && a >= 3)
+          line += " in the case, which sits rotated by (" + fmt("%.2g", 1e3 * r.mount_rotation_rad[0]) + ", " +
+                  fmt("%.2g", 1e3 * r.mount_rotation_rad[1]) + ", " + fmt("%.2g", 1e3 * r.mount_rotation_rad[2]) + ") mrad on the fixture";
       }
       if (std::isfinite(r.gap_after.chi2_dof[u])) {
         line += " (held-out chi2/dof " + fmt("%.3g", r.gap_after.chi2_dof[u]);
