@@ -1,6 +1,7 @@
 // Instantaneous steps of the reference and what they say about a sensor's timing (docs/diagnosis.md
 // § timing, "Steps" and "Lag probe at steps"): the step criterion shared by the reference re-evaluation
-// (diagnose.cpp, ShiftedReference) and the probe, and the probe itself.
+// (diagnose.cpp, ShiftedReference) and the probe, and the probe itself; and, where the reference has no step,
+// the lag probe on the motion (motion_lag.cpp, "Lag probe on the motion").
 #pragma once
 
 #include <algorithm>
@@ -95,5 +96,21 @@ struct StepLag {
 // Reads every step of the log (one streaming pass, memory bounded by the 1.5 s window), per sensor
 // {0: accel, 1: gyro}. fs: sample rate; duration_s: log duration (for the largest shift the line reaches).
 std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double duration_s);
+
+// Lag probe on the motion (motion_lag.cpp; docs/diagnosis.md § timing, "Lag probe on the motion"): for a log
+// whose reference moves smoothly (a table that accelerates into and out of each move, no instantaneous step),
+// the step probe has nothing to read, and a linearised timing term cannot start from a shift of many samples:
+// u̇·δ describes a shift only while it is small next to the time the motion takes to change (a 0.2 s
+// acceleration phase), and a clock drifting by 1.8 s over the log drove the linear iteration to a wrong
+// latency/ppm pair (−0.38 s, +64 ppm for a true 0, −420 ppm). Here every stretch of output that moves (a window
+// of 4 s whose output range is ≥ 2 m/s² or 0.3 rad/s) is matched against the reference shifted by −2.5..+2.5 s:
+// the shift that minimises the squared difference (each axis's mean removed: bias), refined by a parabola
+// through its neighbours, is a local lag, kept when it is unique (no other local minimum within 5× its residual)
+// and sharp (a twentieth of the median over the shifts). A line latency + ppm·t through the local lags (the most
+// lags within max(1.5 bins, 10 ms) of a line through two of them, then least squares with a 3-robust-σ trim) is
+// the result, with the fields of StepLag (n_steps: local lags; n_late/n_early/sign/max_n unused). Valid with at
+// least 8 lags on the line and 60 % of them. Works on the log averaged to about 100 Hz (bins of round(fs/100)
+// samples, more beyond 2e6 bins): O(n_samples + n_windows · n_shifts · window) time, O(n_bins) memory.
+std::array<StepLag, 2> probe_motion_lag(SampleSource& src, double fs, double duration_s);
 
 }  // namespace imuforge::diagnosis
