@@ -11,13 +11,13 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
-#include <optional>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <deque>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -2608,11 +2608,11 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     bool want_motion = false;
     for (int si = 0; si < 2; ++si) want_motion = want_motion || (!lag[static_cast<std::size_t>(si)].valid && lag[static_cast<std::size_t>(si)].sign == 0);
     if (want_motion) mlag = probe_motion_lag(src, first.sample_rate_hz, first.duration_s);
+    const double min_seed_s = std::max(2.0 / std::max(first.sample_rate_hz, 1e-9), 0.02);
     for (int si = 0; si < 2; ++si) {
       const StepLag& M = mlag[static_cast<std::size_t>(si)];
       StepLag& L = lag[static_cast<std::size_t>(si)];
-      const double h = 1.0 / std::max(first.sample_rate_hz, 1e-9);
-      if (L.valid || L.sign != 0 || !M.valid || !(M.max_abs_s >= std::max(2.0 * h, 0.02))) continue;
+      if (L.valid || L.sign != 0 || !M.valid || !(M.max_abs_s >= min_seed_s)) continue;
       L = M;
       seed(si, M, "follows the reference's motion",
            std::to_string(M.n_steps - M.n_outliers) + " of " + std::to_string(M.n_steps) + " moving stretches");

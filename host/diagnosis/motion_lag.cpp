@@ -3,7 +3,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <limits>
 #include <vector>
 
 #include "host/diagnosis/step_lag.h"
@@ -104,10 +103,9 @@ std::array<StepLag, 2> probe_motion_lag(SampleSource& src, double fs, double dur
   // Prefix count of bad bins: a window and its shifted reference must lie in one stretch with a reference.
   std::vector<long> bad(static_cast<std::size_t>(N) + 1, 0);
   for (long i = 0; i < N; ++i) bad[static_cast<std::size_t>(i) + 1] = bad[static_cast<std::size_t>(i)] + (b.ok[static_cast<std::size_t>(i)] ? 0 : 1);
-  // A window must move by much more than the uncalibrated output's bias, scale and misalignment errors.
-  const double thr[2] = {2.0, 0.3};
+  const double* thr = kLagProbeMinChange;  // a window's output range, at least
   const bool trace = std::getenv("IMUFORGE_DIAG_TRACE") != nullptr;
-  std::vector<double> E(static_cast<std::size_t>(2 * L + 1));
+  std::vector<double> E(static_cast<std::size_t>(2 * L + 1)), sorted(E.size());
   for (int s = 0; s < 2; ++s) {
     std::vector<LocalLag> lags;
     for (long i0 = L; i0 + W + L <= N; i0 += W / 2) {
@@ -147,7 +145,7 @@ std::array<StepLag, 2> probe_motion_lag(SampleSource& src, double fs, double dur
             E[static_cast<std::size_t>(q)] <= E[static_cast<std::size_t>(q + 1)] && std::labs(q - j) > 2 &&
             E[static_cast<std::size_t>(q)] < 5.0 * e0)
           unique = false;
-      std::vector<double> sorted(E);
+      sorted = E;
       std::nth_element(sorted.begin(), sorted.begin() + L, sorted.end());
       const double med = sorted[static_cast<std::size_t>(L)];
       if (!unique || !(e0 < 0.05 * med)) continue;

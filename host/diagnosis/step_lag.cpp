@@ -13,9 +13,9 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
   const double h = 1.0 / fs;
   // Lags up to 1.5 s (a 420 ppm clock over 1 h); steps closer than that to another step are skipped.
   const int W = static_cast<int>(std::min(std::ceil(1.5 * fs), 20000.0));
-  // A step must stand clear of the uncalibrated output's bias, scale and misalignment errors by a wide
-  // margin for a sample to be called old or new: 2 m/s², 0.3 rad/s on the axis that changes most.
-  const double thr[2] = {2.0, 0.3};
+  // A step must stand clear of the uncalibrated output's errors for a sample to be called old or new
+  // (kLagProbeMinChange, on the axis that changes most).
+  const double* thr = kLagProbeMinChange;
   std::vector<double> ts[2], lag[2];
   std::deque<Sample> q;
   double t_first = 0;

@@ -82,6 +82,10 @@ bool reference_kink(const R* pp, const R* p, const R& a, const R& b, const R* n,
 // and a tenth of them, and none read early, is decisive (`sign`), where the sines alone may leave a latency
 // of a fraction of a sample below significance. O(n_samples + n_steps · W) time (each step scans its window of
 // W samples), O(W + n_steps) memory.
+// A change a probe reads a lag from must stand clear of the uncalibrated output's bias, scale and misalignment
+// errors by a wide margin (per sensor {accel m/s², gyro rad/s}): a step's largest component, a window's range.
+inline constexpr double kLagProbeMinChange[2] = {2.0, 0.3};
+
 struct StepLag {
   bool valid = false;
   double latency_s = 0, ppm = 0, max_abs_s = 0, rms_s = 0;
