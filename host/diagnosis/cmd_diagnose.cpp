@@ -240,6 +240,11 @@ int run_diagnose(int argc, char** argv) {
         mj["effects"][key] = nlohmann::json::object();
       }
       mj["name"] = mj.value("name", std::string("model")) + "+diagnosis";
+      // The threshold the diagnosis built temp_hysteresis's d(t) at, so the solver builds the same one.
+      bool has_hyst = false;
+      for (const auto& [key, v] : mj["effects"].items()) has_hyst = has_hyst || key.find("temp_hysteresis") != std::string::npos;
+      if (has_hyst && !r.hysteresis_threshold_given && !mj.contains("hysteresis_threshold_C"))
+        mj["hysteresis_threshold_C"] = r.hysteresis_threshold_C;
       if (!rf && sim_path.empty()) {
         try {
           keep_solver_identifiable(mj, log_path, added, r);

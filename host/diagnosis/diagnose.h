@@ -123,7 +123,10 @@ struct Options {
   double mount_prior_rad = 1e-3;  // prior σ per axis of that rotation (a fixture's mounting repeatability)
   double mount_max_rad = 5e-3;    // a larger estimate is not a mount: not used
   double T_ref_C = 25.0;
-  double hysteresis_threshold_C = 0.5;
+  // temp_hysteresis's turning threshold (°C) on the logged temperature. NaN: profiled over a grid and the
+  // choice paid for in the p-value (docs/diagnosis.md § temp_hysteresis); a base model that gives one
+  // (model file "hysteresis_threshold_C") overrides this.
+  double hysteresis_threshold_C = std::numeric_limits<double>::quiet_NaN();
   double dTdt_window_s = 10.0;
   // Block cutting (see header comment).
   double block_max_s = 30.0;
@@ -226,6 +229,12 @@ struct CandidateScore {
   // held-out shrink against the FINAL model (−1 / NaN: not such a candidate). diagnose.cpp says why.
   double final_p = -1;
   double final_shrink_pct = std::numeric_limits<double>::quiet_NaN();
+  // temp_hysteresis only: the threshold (°C) its d(t) was built at, and, when it was profiled against the model
+  // this candidate was tested on, each grid threshold's likelihood ratio and the factor the choice cost its
+  // p-value (docs/diagnosis.md § 5, "temp_hysteresis's threshold").
+  double hysteresis_threshold_C = std::numeric_limits<double>::quiet_NaN();
+  double hysteresis_tests = 1.0;
+  std::vector<std::pair<double, double>> hysteresis_profile;  // {threshold_C, likelihood ratio}
 };
 
 struct StochasticScore {
@@ -353,6 +362,13 @@ struct DiagnosisResult {
   std::vector<std::pair<std::string, std::string>> withdrawn_by_check;
   std::set<model::ParamId> final_ids;      // parameters of the final model (base + selected)
   std::array<double, 2> timing_shift_latency_s{}, timing_shift_ppm{};  // reference re-evaluated at this shift
+  // temp_hysteresis's threshold (°C) d(t) was built at: given (Options or the base model) or chosen by the
+  // profile, with each grid threshold's likelihood ratio against the base model and the effective number of
+  // distinct tests the choice cost (the factor on temp_hysteresis's p-value; 1 when nothing was profiled).
+  double hysteresis_threshold_C = 0.5;
+  bool hysteresis_threshold_given = false;
+  double hysteresis_effective_tests = 1.0;
+  std::vector<std::pair<double, double>> hysteresis_profile;  // {threshold_C, likelihood ratio}
   int timing_iterations = 0;
   struct TimingEstimate {
     bool valid = false;
@@ -383,6 +399,7 @@ struct BaseModel {
   std::vector<model::ParamId> params;
   std::vector<std::string> effect_names;  // "accel.bias"
   double T_ref_C = 25.0;
+  double hysteresis_threshold_C = std::numeric_limits<double>::quiet_NaN();  // the model file's, NaN: not given
 };
 BaseModel base_model_from_spec(const model::ModelSpec& spec);
 // The basic model: bias, scale, misalign for both sensors.

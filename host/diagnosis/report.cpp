@@ -119,7 +119,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
         line += "; not a stationary bias wander either: what is left under one carries a line of period " +
                 fmt("%.0f", w.measured.line_period_s) + " s (false-alarm p " + fmt("%.1g", w.measured.line_p) + ")";
     } else {
-      std::vector<std::string> by;
+      std::vector<std::string> by, details;  // details: what a selected effect's nonlinear parameters read
       for (const auto& st : r.selected)
         if (st.sensor == sensor) by.push_back(st.effect);
       if (!std::isfinite(r.gap_after.chi2_dof[u])) {
@@ -127,8 +127,34 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       } else if (by.empty()) {
         line += "at noise with the model as given";
       } else {
+        // A timing says how late the output is, and, with a resolved clock, how far it has drifted by the end of
+        // the log (the final values include the shift the reference was re-evaluated at; diagnose.cpp). A timing
+        // read off the reference steps is one line per sensor (axis "gyro"/"accel").
+        auto timing_phrase = [&]() -> std::string {
+          const ParamEstimate *lat = nullptr, *ppm = nullptr;
+          for (const auto& pe : r.final_params) {
+            if (pe.axis != an && pe.axis != sensor) continue;
+            if (pe.name == sensor + ".timing.latency_s") lat = &pe;
+            if (pe.name == sensor + ".timing.ppm") ppm = &pe;
+          }
+          if (!lat) return "";
+          std::string t = "timing " + fmt("%.3g", 1e3 * std::fabs(lat->value)) + " ms " + (lat->value >= 0 ? "late" : "early");
+          if (ppm && std::fabs(ppm->value) > 3.0 * ppm->sigma) {
+            const double end_s = lat->value + ppm->value * 1e-6 * r.duration_s;
+            t += ", clock " + fmt("%+.3g", ppm->value) + " ppm, " + fmt("%.3g", std::fabs(end_s)) + " s " + (end_s >= 0 ? "late" : "early") +
+                 " by the end";
+          }
+          return t;
+        };
         line += "explained by";
-        for (std::size_t i = 0; i < by.size(); ++i) line += (i ? ", " : " ") + by[i];
+        for (std::size_t i = 0; i < by.size(); ++i) {
+          line += (i ? ", " : " ") + by[i];
+          if (by[i] == "timing" && !timing_phrase().empty()) details.push_back(timing_phrase());
+          // The threshold its d(t) turns at is part of what temp_hysteresis says (diagnose.cpp: given or profiled).
+          if (by[i] == "temp_hysteresis")
+            details.push_back("temp_hysteresis turning " + fmt("%.2g", r.hysteresis_threshold_C) + " C past each temperature extreme" +
+                              (r.hysteresis_profile.empty() ? "" : " (threshold profiled)"));
+        }
         // The rotation the gyro cross-coupling's terms were evaluated at belongs to its explanation (diagnose.cpp).
         if (r.mount_iterations > 0 && a >= 3)
           line += " in the case, which sits rotated by (" + fmt("%.2g", 1e3 * r.mount_rotation_rad[0]) + ", " +
@@ -140,6 +166,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
         if (std::isfinite(r.gap_after.chi2_dof_wander[u]))
           line += "; " + fmt("%.3g", r.gap_after.chi2_dof_wander[u]) + " in a GLS fit under the whole-log wander";
         line += ")";
+        for (const auto& d : details) line += "; " + d;
       }
     }
     const auto& m = r.stoch[u];
@@ -209,6 +236,11 @@ nlohmann::json to_json(const DiagnosisResult& r) {
       e["final_model_p"] = num(c.final_p);
       e["final_model_heldout_shrink_pct"] = num(c.final_shrink_pct);
     }
+    if (std::isfinite(c.hysteresis_threshold_C)) {
+      nlohmann::json prof = nlohmann::json::array();
+      for (const auto& [thr, lr] : c.hysteresis_profile) prof.push_back({{"threshold_C", num(thr)}, {"likelihood_ratio", num(lr)}});
+      e["hysteresis_threshold"] = {{"C", num(c.hysteresis_threshold_C)}, {"effective_tests", num(c.hysteresis_tests)}, {"profile", prof}};
+    }
     if (c.one_turn_p >= 0) {
       e["one_turn_p"] = num(c.one_turn_p);
       if (!c.significant)  // tested only when it qualified otherwise: the one-turn test refused it
@@ -266,6 +298,14 @@ nlohmann::json to_json(const DiagnosisResult& r) {
   j["timing_shift"] = {{"accel", {{"latency_s", num(r.timing_shift_latency_s[0])}, {"ppm", num(r.timing_shift_ppm[0])}}},
                        {"gyro", {{"latency_s", num(r.timing_shift_latency_s[1])}, {"ppm", num(r.timing_shift_ppm[1])}}},
                        {"iterations", r.timing_iterations}};
+  {
+    nlohmann::json prof = nlohmann::json::array();
+    for (const auto& [thr, lr] : r.hysteresis_profile) prof.push_back({{"threshold_C", num(thr)}, {"likelihood_ratio", num(lr)}});
+    j["hysteresis_threshold"] = {{"C", num(r.hysteresis_threshold_C)},
+                                 {"source", r.hysteresis_threshold_given ? "given" : r.hysteresis_profile.empty() ? "default" : "profiled"},
+                                 {"effective_tests", num(r.hysteresis_effective_tests)},
+                                 {"profile", prof}};
+  }
   j["gap_after"] = gap_json(r.gap_after, &r.gap_before);
   j["parameters"] = params_json(r.final_params);
   nlohmann::json st = nlohmann::json::array();

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "host/poses/detect.h"
+#include "host/solver/fixture.h"
 #include "host/solver/fixture_errors.h"
 
 namespace imuforge::eol {
@@ -19,6 +20,7 @@ Tracker::Tracker(const model::ModelSpec& spec)
       }()) {
   names_ = srif_.names();
   if (ids_.empty()) throw std::invalid_argument("tracker: the model estimates no parameters");
+  hyst_ = solver::logged_hysteresis_tracker(spec);  // the batch solver's: the model's threshold, smoothed
 }
 
 void Tracker::set_noise(double a, double g) {
@@ -149,7 +151,7 @@ bool Tracker::add_segment(const io::LogMeta& meta, const std::vector<io::LogRow>
     in.T_C = T / cnt;
     in.t_s = t / cnt;
     in.Tdot_C_s = tdot;
-    in.d = hyst_.update(in.T_C);
+    in.d = hyst_.update(in.T_C, in.t_s);
     tsum += in.T_C;
     ++nblocks;
     for (int s = accel_ok ? 0 : 1; s < 2; ++s) {

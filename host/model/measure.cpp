@@ -147,8 +147,15 @@ void regressors(Sensor s, const std::vector<ParamId>& ids, const MeasureInput& i
 
 // ---------------------------------------------------------------- thermal history
 
-double HysteresisTracker::update(double T_C) {
+double HysteresisTracker::update(double T_C, double t_s) {
   if (std::isnan(T_C)) return d_;
+  if (tau_ > 0) {
+    if (!have_s_ || t_s < t_prev_ || !std::isfinite(t_s)) s_ = T_C;
+    else if (t_s > t_prev_) s_ += (1.0 - std::exp(-(t_s - t_prev_) / tau_)) * (T_C - s_);
+    have_s_ = true;
+    t_prev_ = t_s;
+    T_C = s_;
+  }
   if (!init_) {
     init_ = true;
     extreme_ = T_C;

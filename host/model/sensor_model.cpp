@@ -243,6 +243,10 @@ ModelSpec model_spec_from_json(const json& j) {
       m.name = it->get<std::string>();
     } else if (k == "T_ref_C") {
       m.T_ref_C = num(*it, "T_ref_C");
+    } else if (k == "hysteresis_threshold_C") {
+      m.hysteresis_threshold_C = num(*it, "hysteresis_threshold_C");
+      if (!(m.hysteresis_threshold_C > 0) || !std::isfinite(m.hysteresis_threshold_C))
+        bad("hysteresis_threshold_C", "must be a positive number of degrees C");
     } else if (k == "effects") {
       // Either ["accel.bias", ...] or {"accel.bias": {options}, ...}.
       std::vector<std::pair<std::string, json>> items;
@@ -322,6 +326,7 @@ json model_spec_to_json(const ModelSpec& m) {
   j["version"] = 1;
   j["name"] = m.name;
   j["T_ref_C"] = m.T_ref_C;
+  if (std::isfinite(m.hysteresis_threshold_C)) j["hysteresis_threshold_C"] = m.hysteresis_threshold_C;
   json eff = json::object();
   for (const auto& me : m.effects) {
     json o = json::object();

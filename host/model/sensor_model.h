@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,11 @@ struct ModelSpec {
   double T_ref_C = 25.0;
   std::vector<ModelEffect> effects;     // sorted by key ("accel.bias" < "gyro.bias": nlohmann::json objects are ordered maps)
   nlohmann::json extra;                 // solver options kept verbatim (e.g. "noise", "mode")
+  // "hysteresis_threshold_C" (°C, > 0): the turning threshold of the temp_hysteresis tracker on the logged
+  // temperature, when the file gives one (`imuforge diagnose --emit-model` writes the one its profile chose,
+  // docs/diagnosis.md § temp_hysteresis). NaN: not given (the solver takes ThermalConstants' default; the
+  // diagnosis profiles it).
+  double hysteresis_threshold_C = std::numeric_limits<double>::quiet_NaN();
 
   // Deterministic parameter ids to estimate, in a stable order (effects as in `effects`, components in
   // catalog order). Stochastic effects listed in a model are accepted and ignored here.

@@ -120,6 +120,7 @@ FixtureAccumulator::FixtureAccumulator(const model::ModelSpec& spec, const io::L
   const std::vector<model::ParamId> ids = spec.parameters();
   if (ids.empty()) throw SolverError("the model estimates no deterministic parameter");
   dTdt_window_s_ = dTdt_window_of(spec);
+  hyst_ = logged_hysteresis_tracker(spec);
   bool has_rate = false;
   for (size_t i = 0; i < ids.size(); ++i) {
     const auto& pi = model::param_info(ids[i]);
@@ -151,6 +152,12 @@ double dTdt_window_of(const model::ModelSpec& spec) {
   return w_s;
 }
 
+model::HysteresisTracker logged_hysteresis_tracker(const model::ModelSpec& spec) {
+  const double thr_C = std::isfinite(spec.hysteresis_threshold_C) ? spec.hysteresis_threshold_C
+                                                                 : model::ThermalConstants{}.hysteresis_threshold_C;
+  return model::HysteresisTracker(thr_C, model::kLoggedTempSmoothing_s);
+}
+
 void FixtureAccumulator::add(const io::LogRow& row) {
   if (finished_) throw SolverError("FixtureAccumulator::add after finish()");
   if (!tdot_) {
@@ -161,7 +168,7 @@ void FixtureAccumulator::add(const io::LogRow& row) {
 }
 
 void FixtureAccumulator::process(const io::LogRow& row, double Tdot_C_s) {
-  const double d = hyst_.update(row.temp_C);
+  const double d = hyst_.update(row.temp_C, row.t_s);
   if (!row.has_ref || row.segment < 0) {
     flush_block();
     flush_segment();

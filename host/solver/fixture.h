@@ -114,6 +114,10 @@ class CenteredTempRate {
 // The Ṫ window of a model: its "dTdt_window_s" (s), else ThermalConstants' default. Throws SolverError
 // unless positive and finite.
 double dTdt_window_of(const model::ModelSpec& spec);
+// The hysteresis tracker of a model, on the logged temperature: its hysteresis_threshold_C (what `imuforge
+// diagnose --emit-model` writes when it chose one), else ThermalConstants' default, read through
+// model::kLoggedTempSmoothing_s.
+model::HysteresisTracker logged_hysteresis_tracker(const model::ModelSpec& spec);
 
 class FixtureAccumulator {
  public:
@@ -187,7 +191,7 @@ class FixtureAccumulator {
   std::array<std::vector<int>, 2> spec_pos_;  // position of each local parameter in spec order
   bool any_per_plateau_ = false;
   bool needs_temp_ = false;
-  model::HysteresisTracker hyst_;
+  model::HysteresisTracker hyst_;  // logged_hysteresis_tracker(spec)
   double dTdt_window_s_ = 10.0;
   std::optional<CenteredTempRate> tdot_;  // only when the model has temp_rate
 

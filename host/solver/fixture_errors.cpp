@@ -102,7 +102,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
         tables.emplace_back(apply(nominal_, nu_, e2));
       }
     log_.rewind();
-    model::HysteresisTracker hyst;
+    model::HysteresisTracker hyst = logged_hysteresis_tracker(spec_);
     physics::TableState last{};
     bool have_last = false;
     std::vector<physics::ImuKinematics> kin(tables.size());
@@ -117,7 +117,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
     std::optional<CenteredTempRate> tdot;
     if (has_temp_rate_) tdot.emplace(dTdt_window_s_);
     auto process = [&](const io::LogRow& row, double Tdot_C_s) {
-      const double d = hyst.update(row.temp_C);
+      const double d = hyst.update(row.temp_C, row.t_s);
       if (row.segment < 0 || !row.has_ref) return;
       physics::TableState st{};
       bool ok = true;

@@ -1622,6 +1622,104 @@ TEST(DiagnosisPipeline, HysteresisOnOneTurnMustStandAboveTheWholeLogWander) {
   }
 }
 
+// temp_hysteresis's threshold is the sensor's own: profiled, not assumed (docs/diagnosis.md § temp_hysteresis).
+// Hand-made static log, the accelerometer x output offset by h·d(t) with d built at 0.3 °C (blindgen's tactical
+// sensor) from a noise-free die temperature; the logged temperature carries 0.02 °C of white noise. The history
+// reverses by 0.15, 0.25, 0.4, 0.6 and 1.0 °C between long moves, so each grid threshold turns d on a different
+// set of reversals and only 0.3 °C turns it on exactly the true ones. Profiled, the threshold is 0.3 °C and h is
+// read within 3σ; at the catalog's 0.5 °C (given), the reversal of 0.4 °C is missed and h is read short.
+TEST(DiagnosisPipeline, HysteresisThresholdIsProfiledNotAssumed) {
+  const double fs = 100.0, dwell_s = 8.0, h = 2e-4, thr_true_C = 0.3;
+  const std::vector<Pose> poses = two_axis_tilts();
+  // Piecewise-linear temperature: long moves with a small reversal after each, cooling then heating.
+  const std::vector<double> knots_C = {25, 15, 15.15, 12, 12.25, 9, 9.4, 6, 6.6, 3, 4, 0,
+                                       10, 9.85, 14, 13.75, 18, 17.6, 22, 21.4, 26, 25, 30};
+  double travel_C = 0;
+  for (std::size_t i = 1; i < knots_C.size(); ++i) travel_C += std::fabs(knots_C[i] - knots_C[i - 1]);
+  const int n_dwell = 36 * static_cast<int>(poses.size());
+  const int n = static_cast<int>(n_dwell * dwell_s * fs);
+  std::mt19937_64 rng(21);
+  std::normal_distribution<double> n01;
+  imuforge::model::HysteresisTracker tracker(thr_true_C);
+  std::vector<Sample> log;
+  std::size_t leg = 1;
+  double leg_start = 0;  // travel at the start of the current leg
+  for (int i = 0; i < n; ++i) {
+    const int k = static_cast<int>(i / (dwell_s * fs));
+    Sample s = referenced_sample(i / fs, k);
+    const double x = travel_C * i / n;  // constant pace along the path
+    while (leg + 1 < knots_C.size() && x > leg_start + std::fabs(knots_C[leg] - knots_C[leg - 1])) {
+      leg_start += std::fabs(knots_C[leg] - knots_C[leg - 1]);
+      ++leg;
+    }
+    const double dT = knots_C[leg] - knots_C[leg - 1];
+    const double die_C = knots_C[leg - 1] + (dT > 0 ? 1.0 : -1.0) * std::min(x - leg_start, std::fabs(dT));
+    const double d = tracker.update(die_C);
+    s.temp_C = die_C + 0.02 * n01(rng);
+    const Pose& f = poses[static_cast<std::size_t>(k) % poses.size()];
+    for (int j = 0; j < 3; ++j) {
+      s.f[j] = f[static_cast<std::size_t>(j)];
+      s.y[j] = s.f[j] + 1e-3 * n01(rng);
+      s.y[3 + j] = 5e-4 * n01(rng);
+    }
+    s.y[0] += h * d;
+    log.push_back(s);
+  }
+  auto hysteresis_x = [](const DiagnosisResult& r) {
+    bool sel = false;
+    for (const auto& st : r.selected) sel = sel || (st.sensor == "accel" && st.effect == "temp_hysteresis");
+    ParamEstimate pe;
+    pe.sigma = -1;
+    for (const auto& p : r.final_params)
+      if (p.name == "accel.temp_hysteresis.x") pe = p;
+    return std::make_pair(sel, pe);
+  };
+  VectorSource src(log);
+  const DiagnosisResult r = diagnose(src, basic_model(), Options{});
+  EXPECT_FALSE(r.hysteresis_threshold_given);
+  EXPECT_DOUBLE_EQ(r.hysteresis_threshold_C, thr_true_C);
+  ASSERT_FALSE(r.hysteresis_profile.empty());
+  EXPECT_GT(r.hysteresis_effective_tests, 1.0) << "the reversals make the grid's columns differ: the choice costs";
+  EXPECT_LE(r.hysteresis_effective_tests, static_cast<double>(r.hysteresis_profile.size()));
+  const auto [sel, pe] = hysteresis_x(r);
+  ASSERT_TRUE(sel);
+  ASSERT_GT(pe.sigma, 0.0);
+  EXPECT_NEAR(pe.value, h, 3.0 * pe.sigma);
+  // The profile's likelihood ratios (measured 231, 434, 727, 282, 90, 75 at 0.1 … 1.2 °C): the truth is the peak.
+  for (const auto& [thr_C, lr] : r.hysteresis_profile)
+    if (thr_C != thr_true_C)
+      for (const auto& [t2, lr2] : r.hysteresis_profile)
+        if (t2 == thr_true_C) EXPECT_LT(lr, lr2) << thr_C;
+  for (const auto& c : r.ranking)
+    if (c.sensor == "accel" && c.effect == "temp_hysteresis")
+      EXPECT_NEAR(c.score, -chi2_log10_sf(c.lr, c.dof) - std::log10(r.hysteresis_effective_tests), 1e-9) << "the choice is paid for";
+  // temp_hysteresis in the base model: the threshold is chosen once, against the base model without it.
+  {
+    BaseModel with_h = basic_model();
+    for (const auto id : imuforge::model::effect_params(imuforge::model::Sensor::kAccel, imuforge::model::Effect::kTempHysteresis))
+      with_h.params.push_back(id);
+    with_h.effect_names.push_back("accel.temp_hysteresis");
+    VectorSource src3(log);
+    const DiagnosisResult rb = diagnose(src3, with_h, Options{});
+    EXPECT_DOUBLE_EQ(rb.hysteresis_threshold_C, thr_true_C);
+    EXPECT_FALSE(rb.hysteresis_profile.empty());
+    const auto [selb, peb] = hysteresis_x(rb);
+    EXPECT_FALSE(selb) << "in the model, not a finding";
+    ASSERT_GT(peb.sigma, 0.0);
+    EXPECT_NEAR(peb.value, h, 3.0 * peb.sigma);
+  }
+  // The catalog's threshold, given: no profile, and the 0.4 °C reversal is missed.
+  Options at_default;
+  at_default.hysteresis_threshold_C = 0.5;
+  VectorSource src2(log);
+  const DiagnosisResult r5 = diagnose(src2, basic_model(), at_default);
+  EXPECT_TRUE(r5.hysteresis_threshold_given);
+  EXPECT_TRUE(r5.hysteresis_profile.empty());
+  const auto [sel5, pe5] = hysteresis_x(r5);
+  ASSERT_TRUE(sel5);
+  EXPECT_GT(std::fabs(pe5.value - h), 3.0 * pe5.sigma) << "at 0.5 °C, h is read short (measured 1.37e-4 ± 3.7e-6; profiled 2.007e-4 ± 3.4e-6)";
+}
+
 // A gyro bias that goes with f_y³ (a cubic g-sensitivity: no catalog effect has it). On the ±1 g faces it equals
 // the linear g_sensitivity (f³ = g²·f); on the tilts it departs. The catalog's g_sensitivity removes most of
 // it, which must not pass for an explanation: its form check (docs/diagnosis.md § 5) withdraws it and the

@@ -112,6 +112,53 @@ TEST(Thermal, HysteresisDirection) {
   EXPECT_EQ(h.update(10.6), 1);
 }
 
+// A logged temperature is noisy; the estimators' tracker reads it through kLoggedTempSmoothing_s. A die that
+// self-heating warms by 0.4 °C (below the threshold) over a 300 s soak, logged with 0.02 °C of white noise at
+// 100 Hz: read raw, the extremes of the noise turn d; smoothed, d stays, and the real turn that follows (a ramp
+// up at 0.05 °C/s) comes within a few seconds of the noise-free one, as does a V-shaped turn at 0.4 °C/s.
+TEST(Thermal, HysteresisOfALoggedTemperatureIsReadThroughTheSmoothing) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> n01;
+  const double fs = 100.0;
+  // The first time d reads `to`.
+  auto first_turn = [&](auto temp, double dur_s, double noise_C, double tau_s, double to) {
+    HysteresisTracker h(0.5, tau_s);
+    double turned = -1;
+    for (int i = 0; i < static_cast<int>(dur_s * fs); ++i) {
+      const double t = i / fs;
+      const double d = h.update(temp(t) + noise_C * n01(rng), t);
+      if (d == to && turned < 0) turned = t;
+    }
+    return turned;
+  };
+  // Cooled to 13 °C (d = −1 from 1.4 s), then 0.4 °C of slow warming, then a ramp up from 400 s.
+  auto soak = [](double t) {
+    const double cool = t < 20 ? 20.0 - 0.35 * t : 13.0;
+    return cool + 0.4 * (1.0 - std::exp(-std::max(0.0, t - 20.0) / 100.0)) + (t > 400 ? 0.05 * (t - 400) : 0.0);
+  };
+  const double clean = first_turn(soak, 500, 0.0, 0.0, 1.0);
+  const double raw = first_turn(soak, 500, 0.02, 0.0, 1.0);
+  const double smooth = first_turn(soak, 500, 0.02, kLoggedTempSmoothing_s, 1.0);
+  EXPECT_GT(clean, 400.0) << "the soak alone does not turn a noise-free die";
+  EXPECT_LT(raw, 400.0) << "raw, the noise turns it during the soak (else this test exercises nothing)";
+  EXPECT_GT(smooth, clean - 0.5);
+  EXPECT_LT(smooth, clean + 3.0 * kLoggedTempSmoothing_s);  // measured 0.6 s late (raw: 56 s early)
+  // A V: 0.4 °C/s up to 40 °C at 50 s, then down.
+  auto vee = [](double t) { return t < 50 ? 20.0 + 0.4 * t : 40.0 - 0.4 * (t - 50); };
+  const double v_clean = first_turn(vee, 100, 0.0, 0.0, -1.0), v_smooth = first_turn(vee, 100, 0.02, kLoggedTempSmoothing_s, -1.0);
+  EXPECT_NEAR(v_clean, 51.25, 0.02);
+  EXPECT_GT(v_smooth, v_clean - 0.1);
+  EXPECT_LT(v_smooth, v_clean + 1.5);  // measured 0.8 s late
+  // Repeated time stamps leave the smoothed value; a time going backwards (a new recording) restarts it.
+  HysteresisTracker h(0.5, 1.0);
+  EXPECT_EQ(h.update(20.0, 0.0), 0);
+  EXPECT_EQ(h.update(30.0, 0.0), 0) << "no time has passed: the filter has not moved";
+  EXPECT_EQ(h.update(30.0, 10.0), 1);
+  EXPECT_EQ(h.update(10.0, 2.0), -1) << "time went back: the filter restarts at the new value";
+  h.reset();
+  EXPECT_EQ(h.update(30.0, 5.0), 0);
+}
+
 TEST(Thermal, CentredTemperatureRate) {
   std::vector<double> t, T;
   for (int i = 0; i <= 1000; ++i) {
@@ -195,6 +242,21 @@ TEST(ModelSpec, ExpandsOrdersAndOptions) {
   EXPECT_TRUE(m.extra.contains("solver"));
   EXPECT_THROW(model_spec_from_json(json{{"effects", {{"accel.bias", {{"order", 2}}}}}}), std::invalid_argument);
   EXPECT_THROW(model_spec_from_json(json{{"effects", {{"accel.bias_temp", {{"order", 4}}}}}}), std::invalid_argument);
+  // The hysteresis tracker's threshold: read, written back, and refused with its key unless positive.
+  EXPECT_TRUE(std::isnan(m.hysteresis_threshold_C));
+  EXPECT_FALSE(model_spec_to_json(m).contains("hysteresis_threshold_C"));
+  const ModelSpec h = model_spec_from_json(json{{"hysteresis_threshold_C", 0.3}, {"effects", {{"accel.temp_hysteresis", json::object()}}}});
+  EXPECT_DOUBLE_EQ(h.hysteresis_threshold_C, 0.3);
+  EXPECT_FALSE(h.extra.contains("hysteresis_threshold_C")) << "a parsed key, not a verbatim solver option";
+  EXPECT_DOUBLE_EQ(model_spec_to_json(h).at("hysteresis_threshold_C").get<double>(), 0.3);
+  for (const json& bad : {json(0.0), json(-0.5), json("0.3")}) {
+    try {
+      model_spec_from_json(json{{"hysteresis_threshold_C", bad}, {"effects", {{"accel.bias", json::object()}}}});
+      ADD_FAILURE() << bad.dump();
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("hysteresis_threshold_C"), std::string::npos) << e.what();
+    }
+  }
   for (const char* f : {"model-basic.json", "model-thermal.json"}) {
     ModelSpec s = load_model_spec(std::string(IMUFORGE_SOURCE_DIR) + "/docs/examples/" + f);
     EXPECT_GE(s.parameters().size(), 24u) << f;

@@ -53,6 +53,23 @@ TEST(FixtureMode, RecoversThermalModelWithinSigma) {
   EXPECT_EQ(sol.observability.rank, 42);
 }
 
+// The solver builds temp_hysteresis's d(t) at the model file's threshold (what `imuforge diagnose --emit-model`
+// writes once its profile chose one), else at the catalog's 0.5 °C: a reversal of 0.4 °C turns d only in the first.
+TEST(FixtureMode, HysteresisTrackerTakesTheModelsThreshold) {
+  model::ModelSpec spec = thermal_spec();
+  auto turns_on_reversal = [](model::HysteresisTracker h) {
+    double d = 0;
+    for (int i = 0; i <= 2000; ++i) {  // 20 s at 100 Hz: down 2 °C, then back up 0.4 °C
+      const double t = i / 100.0;
+      d = h.update(t < 10 ? 25.0 - 0.2 * t : 23.0 + 0.04 * (t - 10), t);
+    }
+    return d > 0;
+  };
+  EXPECT_FALSE(turns_on_reversal(logged_hysteresis_tracker(spec)));
+  spec.hysteresis_threshold_C = 0.3;
+  EXPECT_TRUE(turns_on_reversal(logged_hysteresis_tracker(spec)));
+}
+
 TEST(FixtureMode, SingleTemperatureCannotSeparateTemperatureTerms) {
   synth::Config cfg;
   cfg.plateaus_C = {25};
@@ -235,13 +252,13 @@ TEST(FixtureMode, TempRateBlockCompressionIsExact) {
   ASSERT_EQ(ids.size(), names.size());
   Eigen::MatrixXd h = Eigen::MatrixXd::Zero(48, 48);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(48);
-  model::HysteresisTracker hyst;
+  model::HysteresisTracker hyst(0.5, model::kLoggedTempSmoothing_s);
   const double lsb[2] = {synth::meta(cfg).accel_lsb_mps2, synth::meta(cfg).gyro_lsb_rad_s};
   Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, 48);
   double max_q = 0;
   for (size_t i = 0; i < rows.size(); ++i) {
     const auto& r = rows[i];
-    const double d = hyst.update(r.temp_C);
+    const double d = hyst.update(r.temp_C, r.t_s);
     if (r.segment < 0 || !r.has_ref) continue;
     model::MeasureInput in;
     in.f = Eigen::Vector3d(r.f_ref[0], r.f_ref[1], r.f_ref[2]);
