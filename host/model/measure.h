@@ -111,6 +111,7 @@ class HysteresisTracker {
   double extreme_ = 0.0;  // last turning point candidate (max while heating, min while cooling)
   bool have_s_ = false;
   double s_ = 0.0, t_prev_ = 0.0;  // smoothed temperature and its time
+  double dt_gain_ = -1.0, gain_ = 0.0;  // the low-pass gain of the last step length
 };
 
 // Time constant the estimators (solver, diagnosis) smooth a logged temperature with before HysteresisTracker.
