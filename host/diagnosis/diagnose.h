@@ -124,8 +124,8 @@ struct Options {
   double mount_max_rad = 5e-3;    // a larger estimate is not a mount: not used
   double T_ref_C = 25.0;
   // temp_hysteresis's turning threshold (°C) on the logged temperature. NaN: profiled over a grid and the
-  // choice paid for in the p-value (docs/diagnosis.md § temp_hysteresis); a base model that gives one
-  // (model file "hysteresis_threshold_C") overrides this.
+  // choice paid for in the p-value (docs/diagnosis.md § 5, "temp_hysteresis's threshold"); a base model that
+  // gives one (model file "hysteresis_threshold_C") overrides this.
   double hysteresis_threshold_C = std::numeric_limits<double>::quiet_NaN();
   double dTdt_window_s = 10.0;
   // Block cutting (see header comment).
@@ -362,9 +362,10 @@ struct DiagnosisResult {
   std::vector<std::pair<std::string, std::string>> withdrawn_by_check;
   std::set<model::ParamId> final_ids;      // parameters of the final model (base + selected)
   std::array<double, 2> timing_shift_latency_s{}, timing_shift_ppm{};  // reference re-evaluated at this shift
-  // temp_hysteresis's threshold (°C) d(t) was built at: given (Options or the base model) or chosen by the
-  // profile, with each grid threshold's likelihood ratio against the base model and the effective number of
-  // distinct tests the choice cost (the factor on temp_hysteresis's p-value; 1 when nothing was profiled).
+  // temp_hysteresis's threshold (°C) d(t) was built at: given (Options or the base model), chosen by the profile
+  // (the selected hysteresis's, or the base model's: each grid threshold's likelihood ratio against the model it
+  // was chosen on, and the effective number of distinct tests the choice cost, the factor on temp_hysteresis's
+  // p-value), or the catalog's default when nothing was profiled (empty profile, factor 1).
   double hysteresis_threshold_C = 0.5;
   bool hysteresis_threshold_given = false;
   double hysteresis_effective_tests = 1.0;

@@ -149,7 +149,10 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
         line += "explained by";
         for (std::size_t i = 0; i < by.size(); ++i) {
           line += (i ? ", " : " ") + by[i];
-          if (by[i] == "timing" && !timing_phrase().empty()) details.push_back(timing_phrase());
+          if (by[i] == "timing") {
+            const std::string t = timing_phrase();
+            if (!t.empty()) details.push_back(t);
+          }
           // The threshold its d(t) turns at is part of what temp_hysteresis says (diagnose.cpp: given or profiled).
           if (by[i] == "temp_hysteresis")
             details.push_back("temp_hysteresis turning " + fmt("%.2g", r.hysteresis_threshold_C) + " C past each temperature extreme" +

@@ -89,8 +89,8 @@ Vec3 size_effect_term(const double r[3][3], const Vec3& w, const Vec3& wdot);
 // single-accel.temp_hysteresis-automotive (a die that self-heating warms by less than the threshold during a
 // soak) and back at 846 s, and every real turn came 5–9 s early: the solver read 0.87 of the true h (14 σ),
 // the diagnosis 0.54 (6.6 σ). Through kLoggedTempSmoothing_s (noise 10× down at 100 Hz, a turn delayed by
-// about that constant) neither false turn remains: the diagnosis reads h within 1 σ, the solver within 2.3 σ (on that sensor
-// without its bias instability, which the solver's σ leaves out). A V-shaped turn at 0.4 °C/s
+// about that constant) neither false turn remains: the diagnosis reads h within 1 σ, the solver within 2.3 σ
+// (on that sensor without its bias instability, which the solver's σ leaves out). A V-shaped turn at 0.4 °C/s
 // (tests: a piecewise-linear temperature) still turns within a second; a die, a minute behind its chamber,
 // turns far more slowly than that. The simulator feeds the true die temperature unsmoothed (the physics);
 // the estimators feed the logged one.
@@ -114,7 +114,8 @@ class HysteresisTracker {
   double dt_gain_ = -1.0, gain_ = 0.0;  // the low-pass gain of the last step length
 };
 
-// Time constant the estimators (solver, diagnosis) smooth a logged temperature with before HysteresisTracker.
+// Time constant the estimators (solver, end-of-line tracker, diagnosis) smooth a logged temperature with before
+// HysteresisTracker.
 inline constexpr double kLoggedTempSmoothing_s = 0.5;
 
 // Ṫ by centred difference over ±window_s (shrunk to one side at the ends): for sample i, the slope
