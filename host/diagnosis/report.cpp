@@ -138,11 +138,12 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
             if (pe.name == sensor + ".timing.ppm") ppm = &pe;
           }
           if (!lat) return "";
-          std::string t = "timing " + fmt("%.3g", 1e3 * std::fabs(lat->value)) + " ms " + (lat->value >= 0 ? "late" : "early");
+          std::string t = "timing " + fmt("%.3g", 1e3 * std::fabs(lat->value)) + " +- " + fmt("%.2g", 1e3 * lat->sigma) + " ms " +
+                          (lat->value >= 0 ? "late" : "early");
           if (ppm && std::fabs(ppm->value) > 3.0 * ppm->sigma) {
             const double end_s = lat->value + ppm->value * 1e-6 * r.duration_s;
-            t += ", clock " + fmt("%+.3g", ppm->value) + " ppm, " + fmt("%.3g", std::fabs(end_s)) + " s " + (end_s >= 0 ? "late" : "early") +
-                 " by the end";
+            t += ", clock " + fmt("%+.4g", ppm->value) + " +- " + fmt("%.2g", ppm->sigma) + " ppm, " + fmt("%.3g", std::fabs(end_s)) + " s " +
+                 (end_s >= 0 ? "late" : "early") + " by the end";
           }
           return t;
         };
