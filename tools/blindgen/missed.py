@@ -5,8 +5,13 @@ diagnosis ranking (ΔBIC, held-out shrink, significance, implausible components)
 (the largest |truth| / σ over its components, σ from the first-step ranking fit under the diagnosis's noise
 model): recall per band of that ratio. An effect below ~3 of its own σ cannot be told from the noise by any
 selection rule; what is missed above it is the selection's.
+`--coverage` adds whether the reported σ covers the truth: for every selected effect that is present, each of
+its components in the final fit (`parameters`) against the truth (0 where the case did not inject it), as
+|z| = |value − truth| / σ, per effect: how many within 3σ, the median and the largest |z|.
+`--truth` reads the truth from another folder of cases: the second source's outputs sit in WORK/sim/<case>.
 
-  missed.py WORK/cases [--tag diag] [--ceiling]
+  missed.py WORK/cases [--tag diag] [--ceiling] [--coverage]
+  missed.py WORK/sim --truth WORK/cases --tag TAG --coverage
 """
 import argparse
 import json
@@ -30,12 +35,15 @@ def main():
     ap.add_argument('cases')
     ap.add_argument('--tag', default='diag')
     ap.add_argument('--ceiling', action='store_true', help='recall by the effect\'s size over its own fitted sigma')
+    ap.add_argument('--coverage', action='store_true', help='selected true effects: final-fit components within 3 sigma of the truth')
+    ap.add_argument('--truth', help='folder of the cases holding truth.json (default: the cases folder itself)')
     a = ap.parse_args()
+    cover = {}  # effect (no sensor) -> list of |z|
     bands = [(0, 1), (1, 3), (3, 5), (5, 10), (10, math.inf)]
     tally = {b: [0, 0] for b in bands}
     for name in sorted(os.listdir(a.cases)):
         dj = os.path.join(a.cases, name, a.tag, 'diagnosis.json')
-        tj = os.path.join(a.cases, name, 'truth.json')
+        tj = os.path.join(a.truth or a.cases, name, 'truth.json')
         if not (os.path.exists(dj) and os.path.exists(tj)):
             continue
         d, t = json.load(open(dj)), json.load(open(tj))
@@ -51,6 +59,11 @@ def main():
             print('   missed %-28s snr %7.1f own %5.1f rank %s dBIC %s shrink%% %s sig %s impl %s' % (
                 e, snr.get(e, float('nan')), own_snr(d, t, e), i, '%.1f' % r['delta_bic'] if r.get('delta_bic') is not None else '-',
                 '%.1f' % r['heldout_shrink_pct'] if r.get('heldout_shrink_pct') is not None else '-', r.get('significant'), r.get('implausible')))
+        fitted = {p['name']: p for p in d.get('parameters', []) if p.get('sigma')}
+        for e in sorted(sel & present):
+            for n, p in fitted.items():
+                if n.startswith(e + '.'):
+                    cover.setdefault(e.split('.', 1)[1], []).append(abs(p['value'] - t.get('parameters', {}).get(n, 0.0)) / p['sigma'])
         if t.get('kind') in ('random', 'example'):
             for e in present:
                 z = own_snr(d, t, e)
@@ -65,6 +78,15 @@ def main():
             n, k = tally[b]
             print('  %4g - %-4g: %3d effects, %3d selected (%s)' % (b[0], b[1], n, k, '%.2f' % (k / n) if n else '-'))
         print('  all        : %3d effects, %3d selected' % (n_all, sum(v[1] for v in tally.values())))
+    if a.coverage:
+        print('\nselected true effects, final-fit components against the truth (|z| = |value - truth| / sigma):')
+        for e in sorted(cover):
+            z = sorted(cover[e])
+            print('  %-20s %4d components, %4d within 3 sigma (%.2f), median |z| %.2f, max %.1f' % (
+                e, len(z), sum(1 for x in z if x <= 3), sum(1 for x in z if x <= 3) / len(z), z[len(z) // 2], z[-1]))
+        z = [x for v in cover.values() for x in v]
+        if z:
+            print('  %-20s %4d components, %4d within 3 sigma (%.2f)' % ('all', len(z), sum(1 for x in z if x <= 3), sum(1 for x in z if x <= 3) / len(z)))
 
 
 if __name__ == '__main__':
