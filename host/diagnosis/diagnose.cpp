@@ -460,14 +460,19 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   J[0].resize(3, np[0]);
   J[1].resize(3, np[1]);
 
-  // The logged temperature is noisy: every tracker reads it through model::kLoggedTempSmoothing_s (measure.h).
-  // `hyst` is the threshold the regressors see in this pass (diagnose_core replaces its columns by the
-  // profile's choice when the threshold is not given); the grid's are kept per block for that profile.
-  const double thr_C = std::isfinite(opt.hysteresis_threshold_C) ? opt.hysteresis_threshold_C : model::ThermalConstants{}.hysteresis_threshold_C;
-  model::HysteresisTracker hyst(thr_C, model::kLoggedTempSmoothing_s);
+  // The logged temperature is noisy: it is smoothed once (model::kLoggedTempSmoothing_s, measure.h) and every
+  // tracker reads the smoothed value. A given threshold runs its one tracker; otherwise the grid's trackers run
+  // (their block means kept for diagnose_core's profile) and the regressors see the catalog's default among them
+  // until the profile replaces those columns.
+  const bool profile = !std::isfinite(opt.hysteresis_threshold_C);
+  model::LowPass temp_lp(model::kLoggedTempSmoothing_s);
+  model::HysteresisTracker hyst(profile ? model::ThermalConstants{}.hysteresis_threshold_C : opt.hysteresis_threshold_C);
   std::array<model::HysteresisTracker, kHysteresisGrid> hyst_grid;
-  for (int k = 0; k < kHysteresisGrid; ++k)
-    hyst_grid[static_cast<std::size_t>(k)] = model::HysteresisTracker(kHysteresisGrid_C[static_cast<std::size_t>(k)], model::kLoggedTempSmoothing_s);
+  int k_default = -1;
+  for (int k = 0; k < kHysteresisGrid; ++k) {
+    hyst_grid[static_cast<std::size_t>(k)] = model::HysteresisTracker(kHysteresisGrid_C[static_cast<std::size_t>(k)]);
+    if (kHysteresisGrid_C[static_cast<std::size_t>(k)] == model::ThermalConstants{}.hysteresis_threshold_C) k_default = k;
+  }
   std::array<double, kHysteresisGrid> d_grid{};
   BlockAcc acc;
   int unit = -1, last_seg = -2;
@@ -601,8 +606,14 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   have_cur = src.next(cur);
   if (have_cur) have_next = src.next(nxt);
   while (have_cur) {
-    const double d = hyst.update(cur.temp_C, cur.t_s);
-    for (int k = 0; k < kHysteresisGrid; ++k) d_grid[static_cast<std::size_t>(k)] = hyst_grid[static_cast<std::size_t>(k)].update(cur.temp_C, cur.t_s);
+    const double T_smooth_C = std::isnan(cur.temp_C) ? cur.temp_C : temp_lp.update(cur.temp_C, cur.t_s);
+    double d;
+    if (profile && k_default >= 0) {
+      for (int k = 0; k < kHysteresisGrid; ++k) d_grid[static_cast<std::size_t>(k)] = hyst_grid[static_cast<std::size_t>(k)].update(T_smooth_C);
+      d = d_grid[static_cast<std::size_t>(k_default)];
+    } else {
+      d = hyst.update(T_smooth_C);
+    }
     if (cur.has_ref) {
       // Derivatives from neighbours that also carry a reference.
       model::MeasureInput in;

@@ -29,6 +29,13 @@ nlohmann::json gap_json(const Gap& g, const Gap* before) {
   return j;
 }
 
+// temp_hysteresis's threshold profile: [{threshold_C, likelihood_ratio}].
+nlohmann::json hysteresis_profile_json(const std::vector<std::pair<double, double>>& profile) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& [thr, lr] : profile) a.push_back({{"threshold_C", num(thr)}, {"likelihood_ratio", num(lr)}});
+  return a;
+}
+
 nlohmann::json params_json(const std::vector<ParamEstimate>& v) {
   nlohmann::json a = nlohmann::json::array();
   for (const auto& p : v) a.push_back({{"name", p.name}, {"axis", p.axis}, {"value", num(p.value)}, {"sigma", num(p.sigma)}});
@@ -240,11 +247,9 @@ nlohmann::json to_json(const DiagnosisResult& r) {
       e["final_model_p"] = num(c.final_p);
       e["final_model_heldout_shrink_pct"] = num(c.final_shrink_pct);
     }
-    if (std::isfinite(c.hysteresis_threshold_C)) {
-      nlohmann::json prof = nlohmann::json::array();
-      for (const auto& [thr, lr] : c.hysteresis_profile) prof.push_back({{"threshold_C", num(thr)}, {"likelihood_ratio", num(lr)}});
-      e["hysteresis_threshold"] = {{"C", num(c.hysteresis_threshold_C)}, {"effective_tests", num(c.hysteresis_tests)}, {"profile", prof}};
-    }
+    if (std::isfinite(c.hysteresis_threshold_C))
+      e["hysteresis_threshold"] = {{"C", num(c.hysteresis_threshold_C)}, {"effective_tests", num(c.hysteresis_tests)},
+                                   {"profile", hysteresis_profile_json(c.hysteresis_profile)}};
     if (c.one_turn_p >= 0) {
       e["one_turn_p"] = num(c.one_turn_p);
       if (!c.significant)  // tested only when it qualified otherwise: the one-turn test refused it
@@ -302,14 +307,10 @@ nlohmann::json to_json(const DiagnosisResult& r) {
   j["timing_shift"] = {{"accel", {{"latency_s", num(r.timing_shift_latency_s[0])}, {"ppm", num(r.timing_shift_ppm[0])}}},
                        {"gyro", {{"latency_s", num(r.timing_shift_latency_s[1])}, {"ppm", num(r.timing_shift_ppm[1])}}},
                        {"iterations", r.timing_iterations}};
-  {
-    nlohmann::json prof = nlohmann::json::array();
-    for (const auto& [thr, lr] : r.hysteresis_profile) prof.push_back({{"threshold_C", num(thr)}, {"likelihood_ratio", num(lr)}});
-    j["hysteresis_threshold"] = {{"C", num(r.hysteresis_threshold_C)},
-                                 {"source", r.hysteresis_threshold_given ? "given" : r.hysteresis_profile.empty() ? "default" : "profiled"},
-                                 {"effective_tests", num(r.hysteresis_effective_tests)},
-                                 {"profile", prof}};
-  }
+  j["hysteresis_threshold"] = {{"C", num(r.hysteresis_threshold_C)},
+                               {"source", r.hysteresis_threshold_given ? "given" : r.hysteresis_profile.empty() ? "default" : "profiled"},
+                               {"effective_tests", num(r.hysteresis_effective_tests)},
+                               {"profile", hysteresis_profile_json(r.hysteresis_profile)}};
   j["gap_after"] = gap_json(r.gap_after, &r.gap_before);
   j["parameters"] = params_json(r.final_params);
   nlohmann::json st = nlohmann::json::array();

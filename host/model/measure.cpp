@@ -147,24 +147,25 @@ void regressors(Sensor s, const std::vector<ParamId>& ids, const MeasureInput& i
 
 // ---------------------------------------------------------------- thermal history
 
+double LowPass::update(double x, double t_s) {
+  if (!have_ || t_s < t_prev_ || !std::isfinite(t_s)) {
+    y_ = x;
+  } else if (t_s > t_prev_) {
+    const double dt = t_s - t_prev_;
+    if (std::fabs(dt - dt_gain_) > 1e-9 * dt) {
+      dt_gain_ = dt;
+      gain_ = 1.0 - std::exp(-dt / tau_);
+    }
+    y_ += gain_ * (x - y_);
+  }
+  have_ = true;
+  t_prev_ = t_s;
+  return y_;
+}
+
 double HysteresisTracker::update(double T_C, double t_s) {
   if (std::isnan(T_C)) return d_;
-  if (tau_ > 0) {
-    if (!have_s_ || t_s < t_prev_ || !std::isfinite(t_s)) s_ = T_C;
-    else if (t_s > t_prev_) {
-      // A log's steps repeat to rounding: the gain of the last step is reused (one exp per sample per tracker
-      // was 5 % of a diagnosis, which runs seven trackers).
-      const double dt = t_s - t_prev_;
-      if (std::fabs(dt - dt_gain_) > 1e-9 * dt) {
-        dt_gain_ = dt;
-        gain_ = 1.0 - std::exp(-dt / tau_);
-      }
-      s_ += gain_ * (T_C - s_);
-    }
-    have_s_ = true;
-    t_prev_ = t_s;
-    T_C = s_;
-  }
+  if (smooth_) T_C = lp_.update(T_C, t_s);
   if (!init_) {
     init_ = true;
     extreme_ = T_C;

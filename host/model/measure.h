@@ -94,24 +94,47 @@ Vec3 size_effect_term(const double r[3][3], const Vec3& w, const Vec3& wdot);
 // (tests: a piecewise-linear temperature) still turns within a second; a die, a minute behind its chamber,
 // turns far more slowly than that. The simulator feeds the true die temperature unsmoothed (the physics);
 // the estimators feed the logged one.
+//
+// A caller that runs several thresholds on one temperature (the diagnosis's profile) smooths it once with
+// LowPass below and feeds unsmoothed trackers.
+
+// First-order low-pass of a sampled signal on its own time stamps: y += (1 − e^(−Δt/τ))·(x − y). A first sample
+// or a time going backwards restarts it at x; a repeated time leaves it. The gain of the last step length is
+// reused while the steps repeat (to 1e-9 relative): one exp per sample was 5 % of a diagnosis. O(1).
+class LowPass {
+ public:
+  explicit LowPass(double tau_s) : tau_(tau_s) {}
+  double update(double x, double t_s);  // x finite
+  void reset() { have_ = false; }
+
+ private:
+  double tau_;
+  bool have_ = false;
+  double y_ = 0.0, t_prev_ = 0.0;
+  double dt_gain_ = -1.0, gain_ = 0.0;
+};
+
 class HysteresisTracker {
  public:
   explicit HysteresisTracker(double threshold_C = 0.5, double smooth_tau_s = 0.0)
-      : thr_(threshold_C), tau_(smooth_tau_s) {}
+      : thr_(threshold_C), smooth_(smooth_tau_s > 0), lp_(smooth_tau_s) {}
   // Feed samples in time order; returns d for this sample. NaN temperatures keep the current state.
   // O(1). t_s is used only with smoothing.
   double update(double T_C, double t_s = 0.0);
   double direction() const { return d_; }
-  void reset() { init_ = false; d_ = 0.0; have_s_ = false; }
+  void reset() {
+    init_ = false;
+    d_ = 0.0;
+    lp_.reset();
+  }
 
  private:
-  double thr_, tau_;
+  double thr_;
+  bool smooth_;
+  LowPass lp_;
   bool init_ = false;
   double d_ = 0.0;
   double extreme_ = 0.0;  // last turning point candidate (max while heating, min while cooling)
-  bool have_s_ = false;
-  double s_ = 0.0, t_prev_ = 0.0;  // smoothed temperature and its time
-  double dt_gain_ = -1.0, gain_ = 0.0;  // the low-pass gain of the last step length
 };
 
 // Time constant the estimators (solver, end-of-line tracker, diagnosis) smooth a logged temperature with before
