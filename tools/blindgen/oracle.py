@@ -24,6 +24,8 @@ import subprocess
 import sys
 import tempfile
 
+from missed import own_snr  # |truth| / σ of a ranking entry (this script's folder is on sys.path)
+
 REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), '..', '..'))
 
 
@@ -93,11 +95,9 @@ def main():
                 if r is None:
                     row = {'case': name, 'effect': e, 'ranked': False, 'significant': False}
                 else:
-                    sig = {m['name']: m['sigma'] for m in r.get('magnitude', []) if m.get('sigma')}
-                    z = [abs(v) / sig[n] for n, v in truth.get('parameters', {}).items() if n.startswith(e + '.') and sig.get(n)]
                     row = {'case': name, 'effect': e, 'ranked': True, 'significant': bool(r.get('significant')),
                            'p_value': r.get('p_value'), 'heldout_shrink_pct': r.get('heldout_shrink_pct'),
-                           'oracle_snr': max(z) if z else 0.0}
+                           'oracle_snr': own_snr(od, truth, e)}
                 t[2] += row['significant']
                 rows.append(row)
                 print('%-22s %-28s oracle |truth|/sigma %7.1f  p %-9s shrink %-7s %s' % (
