@@ -260,6 +260,9 @@ struct BlockAcc {
   std::array<double, kNumAxes> dz2{};
   long long ndz = 0;
   std::vector<double> Tseries;   // bin means of the temperature (NaN without one), aligned with `series`
+  // Bin means of the hysteresis state d: the tracked one, then each threshold of kHysteresisGrid_C.
+  std::vector<std::array<double, kHysteresisGrid + 1>> Dseries;
+  std::array<double, kHysteresisGrid + 1> binD_sum{};
   double binT_sum = 0;
   long binT_n = 0;
   long bin_n = 0;
@@ -483,14 +486,46 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   int run_unit = -1;
   double run_Tmin = 1e300, run_Tmax = -1e300;
   std::vector<double> run_T;
+  std::vector<std::array<double, kHysteresisGrid + 1>> run_D;  // aligned with run_series
   // A static run loses opt.settle_s at both ends: an output that lags (or leads) its reference by a latency
   // or an accumulated clock error still moves there, and a few such samples would read as drift noise.
   const std::size_t settle_bins = static_cast<std::size_t>(std::ceil(opt.settle_s * p0.fs / static_cast<double>(m0)));
   auto flush_run = [&]() {
     // A soak whose die temperature still settles: the base model's own thermal terms (bias in T, T²) would
     // read as low-frequency noise. Regress [1, T, T²] out of the run first (it also takes the smooth
-    // Ṫ-driven part of a settling soak); below 0.05 °C of range the run is used as is.
-    bool have_T = !run_T.empty() && run_T.size() == run_series[0].size();
+    // Ṫ-driven part of a settling soak); below 0.05 °C of range T is left out.
+    //
+    // A temperature turn inside a soak or a slow ramp flips temp_hysteresis: a bias step of 2h (h at the first
+    // move from the start). A step inside an Allan record reads as bias instability of that axis, and the
+    // dwells' noise model then hid the very effect that made it (a consumer gyro's hysteresis of 4e-4 rad/s,
+    // flipped on a 70 °C ramp, read as a flicker B four times the other axes' and was never significant). So
+    // each hysteresis state that changes inside the run (the tracked d, or d at a threshold of the profile's
+    // grid: the sensor's own is not known yet) is tried as a step, per axis, with the T terms. Where one
+    // stands above kAllanStepZ both on the run's white scatter and on its own slow wander, the axis's record
+    // is cut at its changes and each piece is an Allan record of its own (with the T trend fitted jointly with
+    // the step): an Allan difference then never straddles the step. Elsewhere the run stays whole, as before.
+    // Cutting at every change (or dropping the run) took the longest record apart on every warm-up, where
+    // all thresholds' d move once, and short logs then lost the flicker level of quiet axes (and named noise
+    // as size_effect / temp_rate); regressing every changing d out read the noise low where the thermal
+    // effects are tested (docs/diagnosis.md § 2).
+    constexpr double kAllanStepZ = 5.0;
+    const std::size_t nb = run_series[0].size();
+    std::vector<int> dcols;  // distinct d columns that change inside the run
+    if (run_D.size() == nb) {
+      for (int c = 0; c <= kHysteresisGrid; ++c) {
+        const auto uc = static_cast<std::size_t>(c);
+        bool varies = false;
+        for (std::size_t i = 1; i < nb && !varies; ++i) varies = run_D[i][uc] != run_D[0][uc];
+        bool dup = false;
+        for (int e : dcols) {
+          bool same = true;
+          for (std::size_t i = 0; i < nb && same; ++i) same = run_D[i][static_cast<std::size_t>(e)] == run_D[i][uc];
+          dup = dup || same;
+        }
+        if (varies && !dup) dcols.push_back(c);
+      }
+    }
+    bool have_T = !run_T.empty() && run_T.size() == nb;
     double tmin = 1e300, tmax = -1e300, tm = 0;
     for (double T : run_T) {
       if (!std::isfinite(T)) have_T = false;
@@ -498,41 +533,125 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       tmax = std::max(tmax, T);
       tm += T;
     }
-    if (have_T && tmax - tmin > 0.05 && run_T.size() > 8) {
-      tm /= static_cast<double>(run_T.size());
-      Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-      for (double T : run_T) {
-        const Eigen::Vector3d x(1.0, T - tm, (T - tm) * (T - tm));
-        H += x * x.transpose();
-      }
-      Eigen::LDLT<Eigen::Matrix3d> ldlt(H);
-      for (int a = 0; a < kNumAxes; ++a) {
-        auto& rs = run_series[static_cast<std::size_t>(a)];
-        Eigen::Vector3d g = Eigen::Vector3d::Zero();
-        for (std::size_t i = 0; i < rs.size(); ++i) {
+    if (have_T) tm /= static_cast<double>(nb);
+    const bool use_T = have_T && tmax - tmin > 0.05 && nb > 8;
+    // Least squares of one axis on [1, (T − tm, (T − tm)²), (d_col)]; returns the coefficients and the variance
+    // factor of the last one ((XᵀX)⁻¹ at d), NaN when singular.
+    auto fit = [&](const std::vector<double>& rs, int col, Eigen::VectorXd& c, double& vd) {
+      const int p = 1 + (use_T ? 2 : 0) + (col >= 0 ? 1 : 0);
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(p, p);
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(p), x(p);
+      for (std::size_t i = 0; i < nb; ++i) {
+        int k = 0;
+        x[k++] = 1.0;
+        if (use_T) {
           const double d = run_T[i] - tm;
-          g += Eigen::Vector3d(1.0, d, d * d) * rs[i];
+          x[k++] = d;
+          x[k++] = d * d;
         }
-        const Eigen::Vector3d c = ldlt.solve(g);
-        if (!c.allFinite()) continue;
-        for (std::size_t i = 0; i < rs.size(); ++i) {
-          const double d = run_T[i] - tm;
-          rs[i] -= c[1] * d + c[2] * d * d;
-        }
+        if (col >= 0) x[k++] = run_D[i][static_cast<std::size_t>(col)];
+        H.noalias() += x * x.transpose();
+        g += x * rs[i];
       }
-    }
-    run_T.clear();
+      const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(H);
+      vd = kNaN;
+      if (qr.rank() < p) return false;
+      c = qr.solve(g);
+      if (col >= 0) vd = qr.inverse()(p - 1, p - 1);
+      return c.allFinite();
+    };
     for (int a = 0; a < kNumAxes; ++a) {
       auto& rs = run_series[static_cast<std::size_t>(a)];
-      if (rs.size() > 2 * settle_bins) {
-        rs.erase(rs.end() - static_cast<long>(settle_bins), rs.end());
-        rs.erase(rs.begin(), rs.begin() + static_cast<long>(settle_bins));
-      } else {
-        rs.clear();
+      int cut_col = -1;
+      if (!dcols.empty() && nb > 8) {
+        double dd = 0;  // white scatter of one bin, from first differences
+        for (std::size_t i = 1; i < nb; ++i) dd += (rs[i] - rs[i - 1]) * (rs[i] - rs[i - 1]);
+        const double s2 = dd / (2.0 * static_cast<double>(nb - 1));
+        double best_z = kAllanStepZ, best_zlf = 0;
+        for (int col : dcols) {
+          Eigen::VectorXd c;
+          double vd = kNaN;
+          if (!fit(rs, col, c, vd) || !(vd > 0) || !(s2 > 0)) continue;
+          const double beta = c[c.size() - 1];
+          const double z = std::fabs(beta) / std::sqrt(s2 * vd);
+          if (z <= best_z) continue;
+          // The white scatter alone would call a flicker or random-walk wander a step (a null automotive gyro,
+          // B 5.8e-5 rad/s, cut at z 6–9 and then read a Gauss-Markov instead of its flicker). So the step must
+          // also stand above the run's own slow wander: the difference of two adjacent means of nb/8 bins (twice
+          // the Allan variance there) over the residual, from the pairs that straddle no change of this d.
+          const auto uc = static_cast<std::size_t>(col);
+          const std::size_t m = std::max<std::size_t>(2, nb / 8);
+          std::vector<double> cs(nb + 1, 0.0);
+          std::vector<int> chg(nb + 1, 0);  // changes of d in bins [1, i)
+          double dmax = 0;
+          for (std::size_t i = 0; i < nb; ++i) {
+            double fitted = c[0];
+            if (use_T) {
+              const double d = run_T[i] - tm;
+              fitted += c[1] * d + c[2] * d * d;
+            }
+            fitted += beta * run_D[i][uc];
+            cs[i + 1] = cs[i] + (rs[i] - fitted);
+            const bool moves = i > 0 && run_D[i][uc] != run_D[i - 1][uc];
+            if (moves) dmax = std::max(dmax, std::fabs(run_D[i][uc] - run_D[i - 1][uc]));
+            chg[i + 1] = chg[i] + (moves ? 1 : 0);
+          }
+          double av = 0;
+          long npair = 0;
+          for (std::size_t i = 0; i + 2 * m <= nb; ++i) {
+            if (chg[i + 2 * m] - chg[i + 1] > 0) continue;  // a change inside the pair's span
+            const double dm = (cs[i + 2 * m] - 2.0 * cs[i + m] + cs[i]) / static_cast<double>(m);
+            av += 0.5 * dm * dm;
+            ++npair;
+          }
+          if (npair == 0) continue;
+          const double zlf = std::fabs(beta) * dmax / std::sqrt(2.0 * av / static_cast<double>(npair));
+          if (!(zlf > kAllanStepZ)) continue;
+          best_z = z;
+          best_zlf = zlf;
+          cut_col = col;
+        }
+        if (std::getenv("IMUFORGE_DIAG_TRACE") && cut_col >= 0)
+          std::fprintf(stderr, "allan run %s: %zu bins (T %.2f..%.2f), a hysteresis step at z %.1f, %.1f over the wander (d column %d): cut\n",
+                       axis_name(a), nb, tmin, tmax, best_z, best_zlf, cut_col);
       }
-      out.allan[static_cast<std::size_t>(a)].add_series(run_series[static_cast<std::size_t>(a)]);
-      run_series[static_cast<std::size_t>(a)].clear();
+      if (cut_col >= 0) {
+        Eigen::VectorXd c;
+        double vd = kNaN;
+        if (fit(rs, cut_col, c, vd) && use_T)
+          for (std::size_t i = 0; i < nb; ++i) {
+            const double d = run_T[i] - tm;
+            rs[i] -= c[1] * d + c[2] * d * d;
+          }
+      } else if (use_T) {
+        Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+        Eigen::Vector3d g = Eigen::Vector3d::Zero();
+        for (std::size_t i = 0; i < nb; ++i) {
+          const Eigen::Vector3d x(1.0, run_T[i] - tm, (run_T[i] - tm) * (run_T[i] - tm));
+          H += x * x.transpose();
+          g += x * rs[i];
+        }
+        const Eigen::Vector3d c = Eigen::LDLT<Eigen::Matrix3d>(H).solve(g);
+        if (c.allFinite())
+          for (std::size_t i = 0; i < nb; ++i) {
+            const double d = run_T[i] - tm;
+            rs[i] -= c[1] * d + c[2] * d * d;
+          }
+      }
+      // The pieces of constant state (one, without a cut), after settle_s at both ends of the run.
+      if (nb > 2 * settle_bins) {
+        const std::size_t lo = settle_bins, hi = nb - settle_bins;
+        std::size_t b0 = lo;
+        for (std::size_t i = lo + 1; i <= hi; ++i)
+          if (i == hi || (cut_col >= 0 && run_D[i][static_cast<std::size_t>(cut_col)] != run_D[i - 1][static_cast<std::size_t>(cut_col)])) {
+            out.allan[static_cast<std::size_t>(a)].add_series(std::vector<double>(rs.begin() + static_cast<long>(b0), rs.begin() + static_cast<long>(i)));
+            b0 = i;
+          }
+      }
+      rs.clear();
     }
+    run_T.clear();
+    run_D.clear();
     run_unit = -1;
   };
   auto close_block = [&]() {
@@ -580,6 +699,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         rs.insert(rs.end(), bs.begin(), bs.end());
       }
       run_T.insert(run_T.end(), acc.Tseries.begin(), acc.Tseries.end());
+      run_D.insert(run_D.end(), acc.Dseries.begin(), acc.Dseries.end());
     } else {
       flush_run();
       if (b.is_static) {
@@ -588,6 +708,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         run_Tmax = acc.nT > 0 ? acc.Tmax : -1e300;
         for (int a = 0; a < kNumAxes; ++a) run_series[static_cast<std::size_t>(a)] = acc.series[static_cast<std::size_t>(a)];
         run_T = acc.Tseries;
+        run_D = acc.Dseries;
       }
     }
     if (b.is_static) {
@@ -709,12 +830,17 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         b.z[a] += z[a];
         acc.bin_sum[static_cast<std::size_t>(a)] += z[a];
       }
+      acc.binD_sum[0] += d;
+      for (int k = 0; k < kHysteresisGrid; ++k) acc.binD_sum[static_cast<std::size_t>(k) + 1] += d_grid[static_cast<std::size_t>(k)];
       if (std::isfinite(cur.temp_C)) {
         acc.binT_sum += cur.temp_C;
         ++acc.binT_n;
       }
       if (++acc.bin_n == m0) {
         acc.Tseries.push_back(acc.binT_n > 0 ? acc.binT_sum / static_cast<double>(acc.binT_n) : kNaN);
+        for (double& x : acc.binD_sum) x /= static_cast<double>(m0);
+        acc.Dseries.push_back(acc.binD_sum);
+        acc.binD_sum.fill(0.0);
         acc.binT_sum = 0;
         acc.binT_n = 0;
         for (int a = 0; a < kNumAxes; ++a) {
