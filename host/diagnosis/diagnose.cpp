@@ -535,95 +535,105 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
     }
     if (have_T) tm /= static_cast<double>(nb);
     const bool use_T = have_T && tmax - tmin > 0.05 && nb > 8;
-    // Least squares of one axis on [1, (T − tm, (T − tm)²), (d_col)]; returns the coefficients and the variance
-    // factor of the last one ((XᵀX)⁻¹ at d), NaN when singular.
-    auto fit = [&](const std::vector<double>& rs, int col, Eigen::VectorXd& c, double& vd) {
-      const int p = 1 + (use_T ? 2 : 0) + (col >= 0 ? 1 : 0);
-      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(p, p);
-      Eigen::VectorXd g = Eigen::VectorXd::Zero(p), x(p);
-      for (std::size_t i = 0; i < nb; ++i) {
-        int k = 0;
-        x[k++] = 1.0;
-        if (use_T) {
-          const double d = run_T[i] - tm;
-          x[k++] = d;
-          x[k++] = d * d;
-        }
-        if (col >= 0) x[k++] = run_D[i][static_cast<std::size_t>(col)];
-        H.noalias() += x * x.transpose();
-        g += x * rs[i];
-      }
-      const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(H);
-      vd = kNaN;
-      if (qr.rank() < p) return false;
-      c = qr.solve(g);
-      if (col >= 0) vd = qr.inverse()(p - 1, p - 1);
-      return c.allFinite();
+    // One candidate step: the run's design [1, (T − tm, (T − tm)²), d_col], the same for every axis, so its
+    // factorisation and the change positions of d are built once per run.
+    struct StepColumn {
+      int col;
+      Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;
+      double vd;             // (XᵀX)⁻¹ at d: the step coefficient's variance per unit noise variance
+      std::vector<int> chg;  // changes of d in bins [1, i)
+      double dmax;           // the largest change of d (1 from the start, 2 at a turn)
     };
+    auto design_row = [&](std::size_t i, int col, Eigen::VectorXd& x) {
+      int k = 0;
+      x[k++] = 1.0;
+      if (use_T) {
+        const double d = run_T[i] - tm;
+        x[k++] = d;
+        x[k++] = d * d;
+      }
+      x[k] = run_D[i][static_cast<std::size_t>(col)];
+    };
+    const int p = (use_T ? 3 : 1) + 1;
+    std::vector<StepColumn> steps;
+    if (nb > 8) {
+      for (int col : dcols) {
+        Eigen::MatrixXd H = Eigen::MatrixXd::Zero(p, p);
+        Eigen::VectorXd x(p);
+        for (std::size_t i = 0; i < nb; ++i) {
+          design_row(i, col, x);
+          H.noalias() += x * x.transpose();
+        }
+        StepColumn sc{col, Eigen::ColPivHouseholderQR<Eigen::MatrixXd>(H), kNaN, std::vector<int>(nb + 1, 0), 0.0};
+        if (sc.qr.rank() < p) continue;  // a d column can follow T's shape over a short run
+        sc.vd = sc.qr.inverse()(p - 1, p - 1);
+        const auto uc = static_cast<std::size_t>(col);
+        for (std::size_t i = 1; i < nb; ++i) {
+          const double jump = std::fabs(run_D[i][uc] - run_D[i - 1][uc]);
+          sc.dmax = std::max(sc.dmax, jump);
+          sc.chg[i + 1] = sc.chg[i] + (jump > 0 ? 1 : 0);
+        }
+        steps.push_back(std::move(sc));
+      }
+    }
     for (int a = 0; a < kNumAxes; ++a) {
       auto& rs = run_series[static_cast<std::size_t>(a)];
-      int cut_col = -1;
-      if (!dcols.empty() && nb > 8) {
+      const StepColumn* cut = nullptr;
+      Eigen::VectorXd cut_c;
+      if (!steps.empty()) {
         double dd = 0;  // white scatter of one bin, from first differences
         for (std::size_t i = 1; i < nb; ++i) dd += (rs[i] - rs[i - 1]) * (rs[i] - rs[i - 1]);
         const double s2 = dd / (2.0 * static_cast<double>(nb - 1));
         double best_z = kAllanStepZ, best_zlf = 0;
-        for (int col : dcols) {
-          Eigen::VectorXd c;
-          double vd = kNaN;
-          if (!fit(rs, col, c, vd) || !(vd > 0) || !(s2 > 0)) continue;
-          const double beta = c[c.size() - 1];
-          const double z = std::fabs(beta) / std::sqrt(s2 * vd);
+        Eigen::VectorXd x(p);
+        for (const StepColumn& sc : steps) {
+          Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
+          for (std::size_t i = 0; i < nb; ++i) {
+            design_row(i, sc.col, x);
+            g += x * rs[i];
+          }
+          const Eigen::VectorXd c = sc.qr.solve(g);
+          if (!c.allFinite() || !(sc.vd > 0) || !(s2 > 0)) continue;
+          const double beta = c[p - 1];
+          const double z = std::fabs(beta) / std::sqrt(s2 * sc.vd);
           if (z <= best_z) continue;
           // The white scatter alone would call a flicker or random-walk wander a step (a null automotive gyro,
           // B 5.8e-5 rad/s, cut at z 6–9 and then read a Gauss-Markov instead of its flicker). So the step must
           // also stand above the run's own slow wander: the difference of two adjacent means of nb/8 bins (twice
           // the Allan variance there) over the residual, from the pairs that straddle no change of this d.
-          const auto uc = static_cast<std::size_t>(col);
           const std::size_t m = std::max<std::size_t>(2, nb / 8);
           std::vector<double> cs(nb + 1, 0.0);
-          std::vector<int> chg(nb + 1, 0);  // changes of d in bins [1, i)
-          double dmax = 0;
           for (std::size_t i = 0; i < nb; ++i) {
-            double fitted = c[0];
-            if (use_T) {
-              const double d = run_T[i] - tm;
-              fitted += c[1] * d + c[2] * d * d;
-            }
-            fitted += beta * run_D[i][uc];
-            cs[i + 1] = cs[i] + (rs[i] - fitted);
-            const bool moves = i > 0 && run_D[i][uc] != run_D[i - 1][uc];
-            if (moves) dmax = std::max(dmax, std::fabs(run_D[i][uc] - run_D[i - 1][uc]));
-            chg[i + 1] = chg[i] + (moves ? 1 : 0);
+            design_row(i, sc.col, x);
+            cs[i + 1] = cs[i] + (rs[i] - x.dot(c));
           }
           double av = 0;
           long npair = 0;
           for (std::size_t i = 0; i + 2 * m <= nb; ++i) {
-            if (chg[i + 2 * m] - chg[i + 1] > 0) continue;  // a change inside the pair's span
+            if (sc.chg[i + 2 * m] - sc.chg[i + 1] > 0) continue;  // a change inside the pair's span
             const double dm = (cs[i + 2 * m] - 2.0 * cs[i + m] + cs[i]) / static_cast<double>(m);
             av += 0.5 * dm * dm;
             ++npair;
           }
           if (npair == 0) continue;
-          const double zlf = std::fabs(beta) * dmax / std::sqrt(2.0 * av / static_cast<double>(npair));
+          const double zlf = std::fabs(beta) * sc.dmax / std::sqrt(2.0 * av / static_cast<double>(npair));
           if (!(zlf > kAllanStepZ)) continue;
           best_z = z;
           best_zlf = zlf;
-          cut_col = col;
+          cut = &sc;
+          cut_c = c;
         }
-        if (std::getenv("IMUFORGE_DIAG_TRACE") && cut_col >= 0)
+        if (std::getenv("IMUFORGE_DIAG_TRACE") && cut)
           std::fprintf(stderr, "allan run %s: %zu bins (T %.2f..%.2f), a hysteresis step at z %.1f, %.1f over the wander (d column %d): cut\n",
-                       axis_name(a), nb, tmin, tmax, best_z, best_zlf, cut_col);
+                       axis_name(a), nb, tmin, tmax, best_z, best_zlf, cut->col);
       }
-      if (cut_col >= 0) {
-        Eigen::VectorXd c;
-        double vd = kNaN;
-        if (fit(rs, cut_col, c, vd) && use_T)
-          for (std::size_t i = 0; i < nb; ++i) {
-            const double d = run_T[i] - tm;
-            rs[i] -= c[1] * d + c[2] * d * d;
-          }
-      } else if (use_T) {
+      // The T trend: fitted jointly with the step where the record is cut, else alone (the 3×3 solve kept as it
+      // was, so a log without a cut gives the output it gave before).
+      double c1 = 0, c2 = 0;
+      if (cut && use_T) {
+        c1 = cut_c[1];
+        c2 = cut_c[2];
+      } else if (!cut && use_T) {
         Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
         Eigen::Vector3d g = Eigen::Vector3d::Zero();
         for (std::size_t i = 0; i < nb; ++i) {
@@ -632,18 +642,22 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
           g += x * rs[i];
         }
         const Eigen::Vector3d c = Eigen::LDLT<Eigen::Matrix3d>(H).solve(g);
-        if (c.allFinite())
-          for (std::size_t i = 0; i < nb; ++i) {
-            const double d = run_T[i] - tm;
-            rs[i] -= c[1] * d + c[2] * d * d;
-          }
+        if (c.allFinite()) {
+          c1 = c[1];
+          c2 = c[2];
+        }
       }
+      if (c1 != 0 || c2 != 0)
+        for (std::size_t i = 0; i < nb; ++i) {
+          const double d = run_T[i] - tm;
+          rs[i] -= c1 * d + c2 * d * d;
+        }
       // The pieces of constant state (one, without a cut), after settle_s at both ends of the run.
       if (nb > 2 * settle_bins) {
         const std::size_t lo = settle_bins, hi = nb - settle_bins;
         std::size_t b0 = lo;
         for (std::size_t i = lo + 1; i <= hi; ++i)
-          if (i == hi || (cut_col >= 0 && run_D[i][static_cast<std::size_t>(cut_col)] != run_D[i - 1][static_cast<std::size_t>(cut_col)])) {
+          if (i == hi || (cut && run_D[i][static_cast<std::size_t>(cut->col)] != run_D[i - 1][static_cast<std::size_t>(cut->col)])) {
             out.allan[static_cast<std::size_t>(a)].add_series(std::vector<double>(rs.begin() + static_cast<long>(b0), rs.begin() + static_cast<long>(i)));
             b0 = i;
           }
