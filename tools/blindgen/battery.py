@@ -7,7 +7,7 @@ diagnosis against the acceptance figures of issue 12 (docs/diagnosis.md, "Blind 
   battery.py --imuforge build/host/bin/imuforge --suite full --work /tmp/blind       # the benchmark
   battery.py ... --suite holdout   # stochastic + mixed cases at seeds no change was tuned on (stop 24)
   battery.py ... --suite varied    # every kind on another lab's schedule (blindgen size 'varied', stop 25)
-  battery.py ... --suite varied2 / varied3 / varied4 / varied5   # the same schedule at fresh seeds (stops 26, 29, 30, 31)
+  battery.py ... --suite varied2 / varied3 / varied4 / varied5 / varied6   # the same schedule at fresh seeds (stops 26, 29, 30, 31, 36)
   battery.py ... --source simulate      # same sensors through `imuforge simulate` (catalog effects only)
   battery.py ... --floors tools/blindgen/floors-smoke.json   # exit 1 when a figure falls below its floor
 
@@ -80,7 +80,7 @@ def suite(name):
     """(case name, kind, seed, options) of a suite."""
     cases = []
     if name == 'smoke':
-        # a few short cases: ~1-2 min in total on a loaded 2-core machine
+        # a few short cases and one of the varied schedule: ~2-3 min in total on a loaded 2-core machine
         for s in (101, 104):  # 104: no table columns (seed % 4 == 0)
             cases.append(('random-%d' % s, 'random', s, {'size': 'short'}))
         cases.append(('null-201', 'null', 201, {'size': 'short', 'cls': 'automotive'}))
@@ -89,6 +89,9 @@ def suite(name):
         cases.append(('single-gyro.g_sensitivity-501', 'single', 501, {'size': 'short', 'effect': 'gyro.g_sensitivity', 'cls': 'automotive'}))
         cases.append(('ooc-g_cubed-402', 'ooc', 402, {'size': 'short', 'ooc': 'g_cubed', 'cls': 'automotive'}))
         cases.append(('example-automotive', 'example', 3, {'size': 'short', 'sensor': 'docs/examples/sensor-automotive.json'}))
+        # varied6 stoch-automotive-10 (stop 36): an accel.z random walk the 6 s dwells read as flicker took
+        # accel.temp_rate for itself, and hid from the re-test the very wander that explains it
+        cases.append(('stoch-varied-11610', 'stochastic', 11610, {'cls': 'automotive', 'size': 'varied'}))
         return cases
     if name == 'holdout':
         # cases no diagnosis change was tuned on (added at stop 24, after its changes were fixed): stochastic-only
@@ -132,6 +135,10 @@ def suite(name):
         # the varied schedule at new seeds (11000+), added at stop 31 and run on the stop-30 binary before any change
         # of that stop: weighted to multi-effect recall
         return varied_fresh(11000, per_class_null=3, per_class_stoch=3, n_random=25, ooc_each=1)
+    if name == 'varied6':
+        # the varied schedule at new seeds (11500+), added at stop 36 and run on the stop-35 binary before any change
+        # of that stop: a check that stop 35's Allan cut carries over, weighted to false claims and to recall
+        return varied_fresh(11500, per_class_null=4, per_class_stoch=4, n_random=20, ooc_each=1)
     if name != 'full':
         raise SystemExit('unknown suite ' + name)
     for s in range(1, 51):
@@ -497,7 +504,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
