@@ -1998,6 +1998,44 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       if (l.kind != WholeLogWander::kNone && (!pick || l.gain > pick->gain)) pick = &l;
     return pick;
   };
+  // The whole log's wander of axis a under the model `ids` (both lines, noise_model.h), and why a line's maximiser
+  // is not wander: too large, a jump, or correlated innovations (a periodic bias); "" when it is. The one rule for
+  // the one-turn hysteresis check, the wander re-test and the final model's wander that diagnose() decides to carry.
+  auto wander_lines = [&](int a, const std::set<ParamId>& ids) {
+    const auto ua = static_cast<std::size_t>(a);
+    const AxisData& ad = ax[ua];
+    const Fit f = fit_axis(ad, cols_for(ad, ids), -1);
+    return whole_log_wander(R.stoch[ua], blk_t, blk_dur, design_rows(ad, f.kept, 0), R.rw_prior_var[ua], R.duration_s,
+                            std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg);
+  };
+  auto wander_reason = [&](const std::array<WholeLogWander, 2>& lines, const WholeLogWander& l) -> const char* {
+    const bool rw_likelier = lines[1].kind != WholeLogWander::kNone && (lines[0].kind == WholeLogWander::kNone || lines[1].gain >= lines[0].gain);
+    const double limit = l.kind == WholeLogWander::kRandomWalk && rw_likelier ? o.wander_rw_max_factor : o.wander_max_factor;
+    return l.limit_ratio > limit ? "too_large"
+           : l.max_abs_z > o.wander_max_z && l.jump_persist_z > o.wander_step_persist_z ? "jump"
+           : l.line_p < o.wander_max_line_p ? "periodic"
+                                              : "";
+  };
+  // The likelier line, unless it fails a check and the other passes them (flicker and random walk differ in shape
+  // beyond a quarter of the log, where the likelihood tells them apart least).
+  auto wander_pick = [&](const std::array<WholeLogWander, 2>& lines) {
+    const WholeLogWander* pick = likelier(lines);
+    if (pick && *wander_reason(lines, *pick)) {
+      const WholeLogWander& other = pick == &lines[0] ? lines[1] : lines[0];
+      if (other.kind != WholeLogWander::kNone && !*wander_reason(lines, other) && other.gain > 3.84) pick = &other;
+    }
+    return pick;
+  };
+  // −2 log L (up to a constant) of the GLS fit of [z | kept columns] of one axis under noise sm: Σ log S + χ².
+  // with_logS false: the χ² alone (the LR of nested columns under one noise model).
+  auto gls_m2ll = [&](const AxisData& ad, const StochasticModel& sm, double rw0, const std::vector<int>& kept, bool with_logS) {
+    double logS = 0;
+    const estimator::NormalEquations ne =
+        gls_normal_equations(sm, blk_t, blk_dur, design_rows(ad, kept, 0), rw0, &blk_seg, nullptr, with_logS ? &logS : nullptr);
+    std::vector<int> cols(kept.size());
+    std::iota(cols.begin(), cols.end(), 0);
+    return logS + estimator::fit_subset(ne, cols).rss;
+  };
   // gk, tests: the candidate's grid position and the factor its threshold's choice costs (score_one).
   auto one_turn_p = [&](const std::set<ParamId>& cur, Sensor s, int gk, double tests) {
     const std::vector<ParamId> eids = model::effect_params(s, Effect::kTempHysteresis);
@@ -2009,19 +2047,9 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       const Fit fc = fit_axis(ad, cols_for(ad, cur), -1);
       const Fit fa = fit_axis(ad, candidate_cols(ad, cur, eids, gk), -1);
       if (fa.kept.size() <= fc.kept.size()) continue;
-      const std::array<WholeLogWander, 2> lines =
-          whole_log_wander(R.stoch[ua], blk_t, blk_dur, design_rows(ad, fc.kept, 0), R.rw_prior_var[ua], R.duration_s,
-                           std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg);
       double rw0 = 0;
-      const StochasticModel sm = with_wander(R.stoch[ua], likelier(lines), R.duration_s, R.rw_prior_var[ua], rw0);
-      // GLS residual sum of squares of [z | kept columns] under sm.
-      auto gls_rss = [&](const std::vector<int>& kept) {
-        const estimator::NormalEquations ne = gls_normal_equations(sm, blk_t, blk_dur, design_rows(ad, kept, 0), rw0, &blk_seg);
-        std::vector<int> cols(kept.size());
-        std::iota(cols.begin(), cols.end(), 0);
-        return estimator::fit_subset(ne, cols).rss;
-      };
-      lr += std::max(gls_rss(fc.kept) - gls_rss(fa.kept), 0.0);
+      const StochasticModel sm = with_wander(R.stoch[ua], likelier(wander_lines(a, cur)), R.duration_s, R.rw_prior_var[ua], rw0);
+      lr += std::max(gls_m2ll(ad, sm, rw0, fc.kept, false) - gls_m2ll(ad, sm, rw0, fa.kept, false), 0.0);
       dof += static_cast<int>(fa.kept.size() - fc.kept.size());
     }
     return dof > 0 ? std::min(1.0, chi2_sf(lr, dof) * tests) : -1.0;
@@ -2453,34 +2481,6 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     }
     for (const auto& ef : step_drop) withdraw(ef);
   }
-  // The whole log's wander of axis a under the model `ids` (both lines, noise_model.h), and why a line's maximiser
-  // is not wander: too large, a jump, or correlated innovations (a periodic bias); "" when it is. The one rule for
-  // the re-test below and for the final model's wander that diagnose() decides to carry.
-  auto wander_lines = [&](int a, const std::set<ParamId>& ids) {
-    const auto ua = static_cast<std::size_t>(a);
-    const AxisData& ad = ax[ua];
-    const Fit f = fit_axis(ad, cols_for(ad, ids), -1);
-    return whole_log_wander(R.stoch[ua], blk_t, blk_dur, design_rows(ad, f.kept, 0), R.rw_prior_var[ua], R.duration_s,
-                            std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg);
-  };
-  auto wander_reason = [&](const std::array<WholeLogWander, 2>& lines, const WholeLogWander& l) -> const char* {
-    const bool rw_likelier = lines[1].kind != WholeLogWander::kNone && (lines[0].kind == WholeLogWander::kNone || lines[1].gain >= lines[0].gain);
-    const double limit = l.kind == WholeLogWander::kRandomWalk && rw_likelier ? o.wander_rw_max_factor : o.wander_max_factor;
-    return l.limit_ratio > limit ? "too_large"
-           : l.max_abs_z > o.wander_max_z && l.jump_persist_z > o.wander_step_persist_z ? "jump"
-           : l.line_p < o.wander_max_line_p ? "periodic"
-                                              : "";
-  };
-  // The likelier line, unless it fails a check and the other passes them (flicker and random walk differ in shape
-  // beyond a quarter of the log, where the likelihood tells them apart least).
-  auto wander_pick = [&](const std::array<WholeLogWander, 2>& lines) {
-    const WholeLogWander* pick = likelier(lines);
-    if (pick && *wander_reason(lines, *pick)) {
-      const WholeLogWander& other = pick == &lines[0] ? lines[1] : lines[0];
-      if (other.kind != WholeLogWander::kNone && !*wander_reason(lines, other) && other.gain > 3.84) pick = &other;
-    }
-    return pick;
-  };
   // Significance under the whole log's wander. The selection judges on the dwells' noise, which at the log's
   // length is 1.2-14x too low where the log wanders more than the dwells show: a slow bias then passes for an
   // effect whose column drifts with the schedule (Ṫ, the hysteresis branch, a pose order). Each selected effect is
@@ -2502,10 +2502,17 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       StochasticModel sm;
       double rw0 = 0;
     };
-    std::vector<std::pair<std::pair<int, int>, std::array<AxisNoise, 3>>> retest;
+    struct Retest {
+      std::pair<int, int> ef;
+      std::set<ParamId> without;  // the model without the effect
+      std::array<AxisNoise, 3> an;
+      double lr = 0, p = 1;
+      int dof = 0;
+    };
+    std::vector<Retest> retest;
     for (const auto& ef : cur_effects) {
       if (fixed_effects.count(ef)) continue;
-      const std::set<ParamId> without = params_without(cur, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
+      std::set<ParamId> without = params_without(cur, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
       std::array<AxisNoise, 3> an;
       bool any = false;
       for (int k = 0; k < 3; ++k) {
@@ -2524,18 +2531,14 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         n.null_wander = true;
         any = true;
       }
-      if (any) retest.push_back({ef, an});
+      if (any) retest.push_back({ef, std::move(without), an});
     }
-    struct Retested {
-      std::pair<int, int> ef;
-      double lr = 0, p = 1;
-      int dof = 0;
-    };
-    std::vector<Retested> tested;
-    for (const auto& [ef, an] : retest) {
-      const std::set<ParamId> without = params_without(cur, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second));
-      double lr = 0;
-      int dof = 0;
+    for (Retest& t : retest) {
+      const std::pair<int, int>& ef = t.ef;
+      const std::array<AxisNoise, 3>& an = t.an;
+      const std::set<ParamId>& without = t.without;
+      double& lr = t.lr;
+      int& dof = t.dof;
       for (int k = 0; k < 3; ++k) {
         const int a = 3 * ef.first + k;
         const auto ua = static_cast<std::size_t>(a);
@@ -2554,33 +2557,25 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         const bool adopted = R.wander[ua].adopted;
         const StochasticModel& own = adopted ? verdict_stoch[ua] : R.stoch[ua];
         const double own_rw0 = adopted ? rw0_v[ua] : R.rw_prior_var[ua];
-        auto m2ll = [&](const StochasticModel& sm, double rw0, const std::vector<int>& kept) {
-          double logS = 0;
-          const estimator::NormalEquations ne =
-              gls_normal_equations(sm, blk_t, blk_dur, design_rows(ad, kept, 0), rw0, &blk_seg, nullptr, &logS);
-          std::vector<int> cols(kept.size());
-          std::iota(cols.begin(), cols.end(), 0);
-          return logS + estimator::fit_subset(ne, cols).rss;
-        };
-        const double l0 = std::min(m2ll(own, own_rw0, f0.kept), m2ll(n.sm, n.rw0, f0.kept));
-        const double l1 = std::min(m2ll(own, own_rw0, f1.kept), m2ll(n.sm, n.rw0, f1.kept));
+        const double l0 = std::min(gls_m2ll(ad, own, own_rw0, f0.kept, true), gls_m2ll(ad, n.sm, n.rw0, f0.kept, true));
+        const double l1 = std::min(gls_m2ll(ad, own, own_rw0, f1.kept, true), gls_m2ll(ad, n.sm, n.rw0, f1.kept, true));
         lr += std::max(l0 - l1, 0.0);
       }
-      tested.push_back({ef, lr, dof > 0 ? chi2_sf(lr, dof) : 1.0, dof});
+      t.p = dof > 0 ? chi2_sf(lr, dof) : 1.0;
       if (std::getenv("IMUFORGE_DIAG_TRACE"))
         std::fprintf(stderr, "under wander %s.%s: LR %.2f dof %d p %.3g (of %zu; wander without it on %d%d%d)\n",
                      model::sensor_name(static_cast<Sensor>(ef.first)), model::effect_info(static_cast<Effect>(ef.second)).name, lr, dof,
-                     tested.back().p, retest.size(), an[0].null_wander, an[1].null_wander, an[2].null_wander);
+                     t.p, retest.size(), an[0].null_wander, an[1].null_wander, an[2].null_wander);
     }
     // Holm's step-down over the family: the i-th smallest p (from 0) stands at α / (k − i); the first that fails
     // fails every larger one with it. As family-wise as α / k for each, and an effect far past the level leaves
     // the others a level they can meet.
-    std::stable_sort(tested.begin(), tested.end(), [](const Retested& x, const Retested& y) { return x.p < y.p; });
+    std::stable_sort(retest.begin(), retest.end(), [](const Retest& x, const Retest& y) { return x.p < y.p; });
     std::vector<std::pair<int, int>> wander_drop;
     bool failed = false;
-    for (std::size_t i = 0; i < tested.size(); ++i) {
-      const Retested& t = tested[i];
-      const double level = o.alpha / static_cast<double>(tested.size() - i);
+    for (std::size_t i = 0; i < retest.size(); ++i) {
+      const Retest& t = retest[i];
+      const double level = o.alpha / static_cast<double>(retest.size() - i);
       failed = failed || !(t.p < level);
       if (!failed) continue;
       const std::pair<int, int>& ef = t.ef;
