@@ -39,6 +39,9 @@ const char* axis_name(int a) {
 namespace {
 
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
+// The mount rotation's corrections (diagnose(), "Mount rotation"): χ² of 3 dof a first one must pass (p 1e-3), and
+// a further one (p 0.01).
+const double kMountFirstChi2 = 16.27, kMountNextChi2 = 11.34;
 const double kFormLr = 23.0;  // χ²(2 dof) at p = 1e-5: the functional-form (RESET) check of a selected effect
 
 // Deterministic catalog parameters of one sensor, in catalog order.
@@ -2281,66 +2284,89 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // selected cross-coupling). With a gyro cross-coupling selected, δ is fitted here, jointly with the final
   // model on each gyro axis (GLS under the axis's noise model) and shared by the three axes (the θ of each axis
   // eliminated by its Schur complement); diagnose() re-runs with the reference rotated by it.
+  // Where that joint fit finds no significant first correction (χ² ≤ 16.3, diagnose()'s level) and the
+  // selection holds gyro effects of the inputs' squares and magnitudes (scale_nonlinearity, scale_asymmetry,
+  // g2_sensitivity), δ is fitted again without them: they are what the rotation's terms pass for, and once
+  // selected they take its signature from δ through the Schur complement (varied7 random-10: a 0.42 mrad mount
+  // beside a 2.8e-3 cross-coupling, false g2_sensitivity at LR 235 and scale_nonlinearity at LR 79, δ at χ² 3.5).
+  // A real one stays: the re-run tests it again on the rotated input, and a rotated run that leaves more axes
+  // unexplained is not kept. Only as the fallback: where the joint fit is significant it is the better-posed one
+  // (varied4 random-2, three couplings and a gyro clock of 18 ppm: without those effects the second correction
+  // runs to 6.5 mrad; with them the selection comes out clean), and for the first correction only: on the rotated
+  // input what those effects still fit is theirs (varied random-0, a true gyro scale_asymmetry and k2 beside a
+  // 0.5 mrad mount: fitted without them, the second correction took 3.7 mrad about z and left gyro.y unexplained).
   if (cur_effects.count({static_cast<int>(Sensor::kGyro), static_cast<int>(Effect::kCrossCoupling)})) {
-    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d g = Eigen::Vector3d::Zero();
     // ε_imn: (e_m × ω)_i = Σ_n ε_imn ω_n.
     auto eps = [](int i, int m, int n) { return (i == m || m == n || i == n) ? 0.0 : ((m - i + 3) % 3 == 1 ? 1.0 : -1.0); };
-    for (int j = 0; j < 3; ++j) {
-      const int a = 3 + j;
-      const auto& ad = ax[static_cast<std::size_t>(a)];
-      const Fit f = fit_axis(ad, cols_for(ad, cur), -1);
-      double c_j[3] = {0, 0, 0};  // ĉ_jk
-      for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) {
-        const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f.kept[static_cast<std::size_t>(i)])]);
-        if (pi.sensor == Sensor::kGyro && pi.effect == Effect::kCrossCoupling && pi.k >= 0 && pi.k < 3) c_j[pi.k] = f.theta[i];
-      }
-      const int P = static_cast<int>(f.kept.size());
-      Eigen::MatrixXd rows = design_rows(ad, f.kept, 3);
-      for (int b = 0; b < B; ++b) {
-        const auto& wq = blocks[static_cast<std::size_t>(b)].wq;
-        for (int m = 0; m < 3; ++m) {
-          double gm = 0;
-          for (int k = 0; k < 3; ++k) {
-            if (k == j || c_j[k] == 0.0) continue;
-            for (int n = 0; n < 3; ++n) gm += c_j[k] * (eps(j, m, n) * wq[n][k] + eps(k, m, n) * wq[j][n]);
-          }
-          rows(b, 1 + P + m) = gm;
+    auto estimate = [&](const std::set<ParamId>& model_ids) {
+      Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      for (int j = 0; j < 3; ++j) {
+        const int a = 3 + j;
+        const auto& ad = ax[static_cast<std::size_t>(a)];
+        const Fit f = fit_axis(ad, cols_for(ad, model_ids), -1);
+        double c_j[3] = {0, 0, 0};  // ĉ_jk
+        for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) {
+          const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f.kept[static_cast<std::size_t>(i)])]);
+          if (pi.sensor == Sensor::kGyro && pi.effect == Effect::kCrossCoupling && pi.k >= 0 && pi.k < 3) c_j[pi.k] = f.theta[i];
         }
+        const int P = static_cast<int>(f.kept.size());
+        Eigen::MatrixXd rows = design_rows(ad, f.kept, 3);
+        for (int b = 0; b < B; ++b) {
+          const auto& wq = blocks[static_cast<std::size_t>(b)].wq;
+          for (int m = 0; m < 3; ++m) {
+            double gm = 0;
+            for (int k = 0; k < 3; ++k) {
+              if (k == j || c_j[k] == 0.0) continue;
+              for (int n = 0; n < 3; ++n) gm += c_j[k] * (eps(j, m, n) * wq[n][k] + eps(k, m, n) * wq[j][n]);
+            }
+            rows(b, 1 + P + m) = gm;
+          }
+        }
+        const estimator::NormalEquations ne =
+            gls_normal_equations(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], &blk_seg);
+        // Reduced χ² of the final fit above 1: the δ information is scaled down by it (conservative).
+        const double s2 = std::max(1.0, f.rss / std::max(1.0, static_cast<double>(B - P)));
+        const Eigen::MatrixXd Htt = ne.info.topLeftCorner(P, P);
+        const Eigen::MatrixXd Htd = ne.info.topRightCorner(P, 3);
+        Eigen::Matrix3d Hdd = ne.info.bottomRightCorner(3, 3);
+        Eigen::Vector3d gd = ne.rhs.tail(3);
+        if (P > 0) {
+          const Eigen::LDLT<Eigen::MatrixXd> l(Htt);
+          Hdd -= Htd.transpose() * l.solve(Htd);
+          gd -= Htd.transpose() * l.solve(ne.rhs.head(P));
+        }
+        H += Hdd / s2;
+        g += gd / s2;
       }
-      const estimator::NormalEquations ne =
-          gls_normal_equations(R.stoch[static_cast<std::size_t>(a)], blk_t, blk_dur, rows, R.rw_prior_var[static_cast<std::size_t>(a)], &blk_seg);
-      // Reduced χ² of the final fit above 1: the δ information is scaled down by it (conservative).
-      const double s2 = std::max(1.0, f.rss / std::max(1.0, static_cast<double>(B - P)));
-      const Eigen::MatrixXd Htt = ne.info.topLeftCorner(P, P);
-      const Eigen::MatrixXd Htd = ne.info.topRightCorner(P, 3);
-      Eigen::Matrix3d Hdd = ne.info.bottomRightCorner(3, 3);
-      Eigen::Vector3d gd = ne.rhs.tail(3);
-      if (P > 0) {
-        const Eigen::LDLT<Eigen::MatrixXd> l(Htt);
-        Hdd -= Htd.transpose() * l.solve(Htd);
-        gd -= Htd.transpose() * l.solve(ne.rhs.head(P));
+      // A prior on the whole rotation (the rotation evaluated at + this correction) of o.mount_prior_rad per axis,
+      // a fixture's mounting repeatability: a rotation about an axis the campaign cannot separate from a
+      // cross-coupling component (about x, c_xz's term is c_xy's) stays at zero instead of following the rest.
+      const Eigen::Vector3d rot0(o.mount_rotation_rad[0], o.mount_rotation_rad[1], o.mount_rotation_rad[2]);
+      const double ip = 1.0 / (o.mount_prior_rad * o.mount_prior_rad);
+      const Eigen::Matrix3d Hp = H + ip * Eigen::Matrix3d::Identity();
+      const Eigen::LDLT<Eigen::Matrix3d> l(Hp);
+      const Eigen::Vector3d d = l.solve(g - ip * rot0);
+      DiagnosisResult::MountEstimate me;
+      if (d.allFinite() && l.info() == Eigen::Success) {
+        const Eigen::Matrix3d C = l.solve(Eigen::Matrix3d::Identity());
+        me.valid = true;
+        for (int m = 0; m < 3; ++m) {
+          me.sigma_rad[static_cast<std::size_t>(m)] = std::sqrt(std::max(C(m, m), 0.0));
+          me.delta_rad[static_cast<std::size_t>(m)] = d[m];
+        }
+        me.chi2 = d.dot(H * d);
       }
-      H += Hdd / s2;
-      g += gd / s2;
-    }
-    // A prior on the whole rotation (the rotation evaluated at + this correction) of o.mount_prior_rad per axis,
-    // a fixture's mounting repeatability: a rotation about an axis the campaign cannot separate from a
-    // cross-coupling component (about x, c_xz's term is c_xy's) stays at zero instead of following the rest.
-    const Eigen::Vector3d rot0(o.mount_rotation_rad[0], o.mount_rotation_rad[1], o.mount_rotation_rad[2]);
-    const double ip = 1.0 / (o.mount_prior_rad * o.mount_prior_rad);
-    const Eigen::Matrix3d Hp = H + ip * Eigen::Matrix3d::Identity();
-    const Eigen::LDLT<Eigen::Matrix3d> l(Hp);
-    const Eigen::Vector3d d = l.solve(g - ip * rot0);
-    if (d.allFinite() && l.info() == Eigen::Success) {
-      const Eigen::Matrix3d C = l.solve(Eigen::Matrix3d::Identity());
-      auto& me = R.mount_est;
-      me.valid = true;
-      for (int m = 0; m < 3; ++m) {
-        me.sigma_rad[static_cast<std::size_t>(m)] = std::sqrt(std::max(C(m, m), 0.0));
-        me.delta_rad[static_cast<std::size_t>(m)] = d[m];
-      }
-      me.chi2 = d.dot(H * d);
+      return me;
+    };
+    R.mount_est = estimate(cur);
+    std::set<ParamId> reduced = cur;
+    for (Effect e : {Effect::kScaleNonlinearity, Effect::kScaleAsymmetry, Effect::kG2Sensitivity})
+      if (!fixed_effects.count({static_cast<int>(Sensor::kGyro), static_cast<int>(e)})) reduced = params_without(reduced, Sensor::kGyro, e);
+    const bool rotated = o.mount_rotation_rad[0] != 0.0 || o.mount_rotation_rad[1] != 0.0 || o.mount_rotation_rad[2] != 0.0;
+    if (!rotated && !(R.mount_est.valid && R.mount_est.chi2 > kMountFirstChi2) && reduced != cur) {
+      const DiagnosisResult::MountEstimate me = estimate(reduced);
+      if (me.valid) R.mount_est = me;
     }
   }
 
@@ -2718,7 +2744,21 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a
       // random walk, and the floor it raised hides the residual from the held-out χ².
       const bool structured = w.beyond_reason == "jump" || w.beyond_reason == "periodic";
-      if (structured && pick->gain >= o.wander_unexplained_gain && !over(R.gap_after, a)) {
+      // A coarse output step's rounding bias is a function of the input (noise_model.h, output_step), and an input
+      // the temperature carries slowly through the steps turns it into a slow oscillation of the means: a line or
+      // a jump in the whole log's residual that is neither wander nor an effect outside the catalog (varied6
+      // stoch-consumer-6 gyro.z: a line of period 284 s, residual rms 2.6e-4 beside a staircase sigma of 2.0e-4).
+      // The output-step check's rule for an effect holds for this structure too: within twice the staircase's
+      // sigma, the residual as a whole cannot be told from the rounding, and the axis is not named.
+      const auto& q = R.quant[ua];
+      if (structured && q.step > 0 && q.noise_sigma < 0.6 * q.step) {
+        const Fit f = fit_axis(ax[ua], cols_for(ax[ua], cur), -1);
+        Eigen::VectorXd r = ax[ua].zr;
+        for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) r -= ax[ua].Xr.col(f.kept[static_cast<std::size_t>(i)]) * f.theta[i];
+        w.residual_rms = B > 0 ? std::sqrt(r.squaredNorm() / B) : 0.0;
+        w.within_rounding = w.residual_rms < 2.0 * std::sqrt(R.stoch[ua].seg_bias_var);
+      }
+      if (structured && !w.within_rounding && pick->gain >= o.wander_unexplained_gain && !over(R.gap_after, a)) {
         Unexplained u;
         u.axis = axis_name(a);
         u.chi2_dof_after = R.gap_after.chi2_dof[ua];
@@ -3182,7 +3222,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       if (std::getenv("IMUFORGE_DIAG_TRACE"))
         std::fprintf(stderr, "mount it %d valid %d chi2 %g d %g %g %g sig %g %g %g\n", it, R.mount_est.valid, R.mount_est.chi2, R.mount_est.delta_rad[0], R.mount_est.delta_rad[1], R.mount_est.delta_rad[2], R.mount_est.sigma_rad[0], R.mount_est.sigma_rad[1], R.mount_est.sigma_rad[2]);
       const auto& me = R.mount_est;
-      if (!me.valid || !(me.chi2 > (it == 0 ? 16.27 : 11.34))) break;
+      if (!me.valid || !(me.chi2 > (it == 0 ? kMountFirstChi2 : kMountNextChi2))) break;
       std::array<double, 3> next = rot;
       double mx = 0;
       for (int m = 0; m < 3; ++m) {

@@ -325,6 +325,10 @@ struct DiagnosisResult {
     std::string beyond_reason;        // "too_large" (limit_ratio > wander_max_factor), "jump" (max_abs_z > wander_max_z
                                       // and jump_persist_z > wander_step_persist_z: a bias step)
                                       // or "periodic" (line_p < wander_max_line_p)
+    // A jump or line on an axis with a coarse output step: the final model's residual rms over the blocks, and
+    // whether it is within twice the rounding staircase's sigma (then the axis is not named unexplained for it).
+    double residual_rms = 0;
+    bool within_rounding = false;
   };
   std::array<Wander, kNumAxes> wander{};
   std::array<double, kNumAxes> claimed_N{};

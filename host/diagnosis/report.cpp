@@ -192,6 +192,12 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     if (q.step > 0 && q.noise_sigma < 0.6 * q.step)
       line += "; output step " + fmt("%.3g", q.step) + " with " + fmt("%.2g", q.noise_sigma / q.step) +
               " step of noise ahead of it: each static mean keeps a rounding bias (sigma " + fmt("%.2g", std::sqrt(r.stoch[u].seg_bias_var)) + ")";
+    // A line or a jump the whole log's residual carries within that rounding (diagnose.cpp: not named unexplained).
+    if (r.wander[u].within_rounding)
+      line += std::string("; the whole log's residual carries ") +
+              (r.wander[u].beyond_reason == "periodic" ? "a line of period " + fmt("%.0f", r.wander[u].measured.line_period_s) + " s"
+                                                       : std::string("a bias step")) +
+              ", within the rounding (residual rms " + fmt("%.2g", r.wander[u].residual_rms) + ", under twice its sigma)";
     out.push_back(line);
   }
   return out;
@@ -337,7 +343,9 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"line_period_s", num(r.wander[u].measured.line_period_s)},
                                                  {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
-                                            {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))}}}};
+                                            {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))},
+                                            {"structure_within_rounding", r.wander[u].within_rounding},
+                                            {"residual_rms", num(r.wander[u].residual_rms)}}}};
   }
   j["noise"] = noise;
   nlohmann::json cells = nlohmann::json::array();
