@@ -2360,13 +2360,15 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       return me;
     };
     R.mount_est = estimate(cur);
-    std::set<ParamId> reduced = cur;
-    for (Effect e : {Effect::kScaleNonlinearity, Effect::kScaleAsymmetry, Effect::kG2Sensitivity})
-      if (!fixed_effects.count({static_cast<int>(Sensor::kGyro), static_cast<int>(e)})) reduced = params_without(reduced, Sensor::kGyro, e);
     const bool rotated = o.mount_rotation_rad[0] != 0.0 || o.mount_rotation_rad[1] != 0.0 || o.mount_rotation_rad[2] != 0.0;
-    if (!rotated && !(R.mount_est.valid && R.mount_est.chi2 > kMountFirstChi2) && reduced != cur) {
-      const DiagnosisResult::MountEstimate me = estimate(reduced);
-      if (me.valid) R.mount_est = me;
+    if (!rotated && !(R.mount_est.valid && R.mount_est.chi2 > kMountFirstChi2)) {
+      std::set<ParamId> reduced = cur;
+      for (Effect e : {Effect::kScaleNonlinearity, Effect::kScaleAsymmetry, Effect::kG2Sensitivity})
+        if (!fixed_effects.count({static_cast<int>(Sensor::kGyro), static_cast<int>(e)})) reduced = params_without(reduced, Sensor::kGyro, e);
+      if (reduced != cur) {
+        const DiagnosisResult::MountEstimate me = estimate(reduced);
+        if (me.valid) R.mount_est = me;
+      }
     }
   }
 
@@ -2390,6 +2392,11 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       if (pi.sensor == s && pi.effect == e) c += ad.Xr.col(f.kept[static_cast<std::size_t>(i)]) * f.theta[i];
     }
     return c;
+  };
+  // A signal of rms `rms` on axis a within a coarse output step's rounding staircase (twice its σ): it cannot be
+  // told from the rounding (the output-step check of an effect; the whole-log residual's structure).
+  auto within_rounding = [&](std::size_t ua, double rms) {
+    return R.quant[ua].coarse() && rms < 2.0 * std::sqrt(R.stoch[ua].seg_bias_var);
   };
   // Withdraws a selected effect (form, output-step or unexplained check): out of the model and the selection,
   // listed with its sensor's unexplained axes.
@@ -2483,12 +2490,10 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         const AxisData& ad = ax[ua];
         const Fit f_with = fit_axis(ad, cols_for(ad, cur), -1), f_without = fit_axis(ad, cols_for(ad, without), -1);
         const double rms = B > 0 ? std::sqrt(effect_signal(ad, f_with, s, e).squaredNorm() / B) : 0.0;
-        const auto& q = R.quant[ua];
-        const double sb = std::sqrt(R.stoch[ua].seg_bias_var);
-        if (q.step > 0 && q.noise_sigma < 0.6 * q.step && rms < 2.0 * sb) {
+        if (within_rounding(ua, rms)) {
           a_in = a;
           rms_in = rms;
-          sb_in = sb;
+          sb_in = std::sqrt(R.stoch[ua].seg_bias_var);
         } else {
           lr_rest += std::max(f_without.rss - f_with.rss, 0.0);
           dof_rest += static_cast<int>(f_with.kept.size()) - static_cast<int>(f_without.kept.size());
@@ -2750,13 +2755,12 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       // stoch-consumer-6 gyro.z: a line of period 284 s, residual rms 2.6e-4 beside a staircase sigma of 2.0e-4).
       // The output-step check's rule for an effect holds for this structure too: within twice the staircase's
       // sigma, the residual as a whole cannot be told from the rounding, and the axis is not named.
-      const auto& q = R.quant[ua];
-      if (structured && q.step > 0 && q.noise_sigma < 0.6 * q.step) {
+      if (structured && R.quant[ua].coarse()) {
         const Fit f = fit_axis(ax[ua], cols_for(ax[ua], cur), -1);
         Eigen::VectorXd r = ax[ua].zr;
         for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) r -= ax[ua].Xr.col(f.kept[static_cast<std::size_t>(i)]) * f.theta[i];
         w.residual_rms = B > 0 ? std::sqrt(r.squaredNorm() / B) : 0.0;
-        w.within_rounding = w.residual_rms < 2.0 * std::sqrt(R.stoch[ua].seg_bias_var);
+        w.within_rounding = within_rounding(ua, w.residual_rms);
       }
       if (structured && !w.within_rounding && pick->gain >= o.wander_unexplained_gain && !over(R.gap_after, a)) {
         Unexplained u;

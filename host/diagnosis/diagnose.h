@@ -311,6 +311,9 @@ struct DiagnosisResult {
   // continuous). The variance of the rounding bias each segment mean keeps is stoch[a].seg_bias_var.
   struct Quantization {
     double step = 0, noise_sigma = 0;
+    // Coarse: noise below 0.6 step ahead of the quantiser, where the verdict names the means' rounding bias and
+    // the output-step checks weigh a signal against it (docs/diagnosis.md § 2, "Output step").
+    bool coarse() const { return step > 0 && noise_sigma < 0.6 * step; }
   };
   std::array<Quantization, kNumAxes> quant{};
   // Whole-log wander of the final model (REML over the block means, noise_model.h) against the static dwells'

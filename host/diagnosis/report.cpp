@@ -189,7 +189,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     if (m.K > 0) line += "; rate random walk " + fmt("%.3g", m.K);
     // A coarse output step is a noise finding too: it caps how well any static mean can be read.
     const auto& q = r.quant[u];
-    if (q.step > 0 && q.noise_sigma < 0.6 * q.step)
+    if (q.coarse())
       line += "; output step " + fmt("%.3g", q.step) + " with " + fmt("%.2g", q.noise_sigma / q.step) +
               " step of noise ahead of it: each static mean keeps a rounding bias (sigma " + fmt("%.2g", std::sqrt(r.stoch[u].seg_bias_var)) + ")";
     // A line or a jump the whole log's residual carries within that rounding (diagnose.cpp: not named unexplained).
