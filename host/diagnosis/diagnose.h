@@ -147,6 +147,9 @@ struct Options {
   // wander_max_factor (Allan deviation at a quarter of the log).
   std::array<double, kNumAxes> wander_B = nan_axes();
   std::array<double, kNumAxes> wander_K = nan_axes();
+  // The flicker B that goes with an adopted random walk where the whole log's joint maximum lies below the dwells'
+  // (noise_model.h whole_log_wander: short dwells read the start of a walk as flicker); NaN = the dwells'.
+  std::array<double, kNumAxes> wander_K_B = nan_axes();
   bool whole_log_wander = true;     // estimate it and adopt it (off: the static dwells' level only)
   double wander_max_factor = 4.0;   // a whole-log wander above this × the dwells' is not wander: a deterministic
                                     // residual (out-of-catalog) that must stay visible as such
@@ -332,6 +335,9 @@ struct DiagnosisResult {
     // whether it is within twice the rounding staircase's sigma (then the axis is not named unexplained for it).
     double residual_rms = 0;
     bool within_rounding = false;
+    // An adopted random walk whose joint maximum lowered the dwells' flicker: the flicker B it goes with (NaN: the
+    // dwells'; Options::wander_K_B).
+    double walk_flicker_B = std::numeric_limits<double>::quiet_NaN();
   };
   std::array<Wander, kNumAxes> wander{};
   std::array<double, kNumAxes> claimed_N{};

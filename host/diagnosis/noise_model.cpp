@@ -393,8 +393,8 @@ StochasticModel with_wander(const StochasticModel& m, const WholeLogWander* w, d
   rw_prior_var_out = rw_prior_var;
   if (w && w->kind == WholeLogWander::kFlicker) out.bank_sigma = out.bank_sigma_lik = w->bank_sigma;
   if (w && w->kind == WholeLogWander::kRandomWalk) {
-    // A walk raised from the dwells' own model: without flicker where they show none (whole_log_wander).
-    if (!(m.bank_sigma > 0)) out.bank_sigma = out.bank_sigma_lik = 0;
+    // A walk raised jointly with the flicker that goes with it (whole_log_wander).
+    out.bank_sigma = out.bank_sigma_lik = w->bank_sigma;
     out.K = w->K;
     rw_prior_var_out = w->K * w->K * duration_s / 6.0;
   }
@@ -536,27 +536,37 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
     }
     if (w.kind != WholeLogWander::kNone) finish(w, line_best);
   }
-  // Random walk: K raised from its fit, or from where it adds 1 % to the Allan variance at D/4.
+  // Random walk: K raised from its fit, or from where it adds 1 % to the Allan variance at D/4, jointly with the
+  // flicker: short dwells read the start of a random walk as flicker, and a walk raised beside that flicker held
+  // fits the whole log short of its size.
   {
-    StochasticModel mk = m0;
     WholeLogWander& w = out[1];
     double line_best = base;
     const double k_start = std::max(m.K, 0.1 * std::sqrt(3.0 * avar0 / tau_long));
-    for (double k = k_start * step;; k *= step) {
-      mk.K = k;
-      const double ratio = std::sqrt(mk.avar(tau_long) / avar0);
-      if (ratio > ratio_max) break;
-      const double v = m2ll(mk, k * k * duration_s / 6.0);
-      if (!std::isfinite(v)) break;
-      if (v < line_best) {
-        line_best = v;
-        w.kind = WholeLogWander::kRandomWalk;
-        w.K = k;
-        w.limit_ratio = ratio;
-        w.ratio = std::sqrt(mk.avar(tau_long) / avar_seen);
-      } else if (v > line_best + 10.0) {
-        break;
+    for (int j = 0; j <= (m0.bank_sigma > 0 ? 5 : 0); ++j) {
+      StochasticModel mk = m0;
+      mk.bank_sigma = mk.bank_sigma_lik = j == 5 ? 0.0 : m0.bank_sigma / static_cast<double>(1 << j);
+      double fl_best = std::numeric_limits<double>::infinity();
+      for (double k = k_start * step;; k *= step) {
+        mk.K = k;
+        const double ratio = std::sqrt(mk.avar(tau_long) / avar0);
+        if (ratio > ratio_max) break;
+        const double v = m2ll(mk, k * k * duration_s / 6.0);
+        if (!std::isfinite(v)) break;
+        fl_best = std::min(fl_best, v);
+        if (v < line_best) {
+          line_best = v;
+          w.kind = WholeLogWander::kRandomWalk;
+          w.K = k;
+          w.bank_sigma = mk.bank_sigma;
+          w.B = mk.bank_sigma > 0 ? flicker_B_of_sigma(mk.bank_sigma, m.bank_tau_s) : 0.0;
+          w.limit_ratio = ratio;
+          w.ratio = std::sqrt(mk.avar(tau_long) / avar_seen);
+        } else if (v > (j == 0 ? line_best : fl_best) + 10.0) {  // j = 0: past this line's maximum, as above
+          break;
+        }
       }
+      if (fl_best > line_best + 10.0) break;  // past the flicker's maximum along the profile
     }
     if (w.kind != WholeLogWander::kNone) finish(w, line_best);
   }

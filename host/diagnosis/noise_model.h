@@ -82,15 +82,19 @@ double flicker_B_of_sigma(double bank_sigma, const std::vector<double>& bank_tau
 // the wander only up to their own length (tens of seconds); the block means of a log whose plateaus lie an hour
 // apart show the rest. Given the deterministic columns, the restricted likelihood of the block means (REML: the
 // columns are profiled out and log det of their information counted, so what the fit absorbs does not bias the
-// level low) is maximised over two one-parameter raises of the model's long-term noise, each on a 2^(1/4) grid
-// upward from the model's own likelihood level: the flicker bank's σ, or the rate random walk K (its offset
-// prior K²·D/6 with it). Returns each line's maximiser ({flicker, random walk}; kind kNone where no raise
-// improves the likelihood), measured by the Allan deviation it gives at a quarter of the log duration against
-// the model's own there (`ratio`), searched up to ratio_max, with its residual checks.
-// rows: [z | x] per block in time order, as whiten_segment takes them. O(grid · n · (P + states²)).
+// level low) is maximised over two raises of the model's long-term noise, each on a 2^(1/4) grid upward from the
+// model's own likelihood level: the flicker bank's σ, or the rate random walk K (its offset prior K²·D/6 with
+// it) jointly with the flicker bank at 1, ½, ¼, ⅛, 1/16 of that level or none (a walk the dwells read as flicker
+// is fitted short beside that flicker held). Returns each line's maximiser ({flicker, random walk}; kind kNone
+// where no raise improves the likelihood), measured by the Allan deviation it gives at a quarter of the log
+// duration against the model's own there (`ratio`), searched up to ratio_max, with its residual checks.
+// rows: [z | x] per block in time order, as whiten_segment takes them. O(grid · n · (P + states²)), the random-walk
+// line up to six times.
 struct WholeLogWander {
   enum Kind { kNone, kFlicker, kRandomWalk } kind = kNone;
-  double bank_sigma = 0, B = 0;  // kFlicker: the maximiser and its flicker B
+  // kFlicker: the maximiser and its flicker B. kRandomWalk: the flicker that goes with the walk (the walk is raised
+  // jointly with it, from the likelihood's level down to none: short dwells read the start of a walk as flicker).
+  double bank_sigma = 0, B = 0;
   double K = 0;                  // kRandomWalk: the maximiser
   double ratio = 1;              // Allan deviation at D/4: raised model / the level the dwells show
   // The same against the likelihood's level (the flicker's upper limit where the dwells show none, else equal to
@@ -122,9 +126,9 @@ struct WholeLogWander {
   double line_period_s = 0;
 };
 
-// m with a whole-log raise applied: w's maximiser (flicker bank σ or random-walk K), or with w null or kNone the
-// likelihood's own level (the flicker bank at the larger of its point and upper σ; a random-walk raise on a model
-// whose point flicker is 0 carries no flicker, as the search started there). rw_prior_var_out receives
+// m with a whole-log raise applied: w's maximiser (flicker bank σ, or random-walk K with the flicker bank σ found
+// with it), or with w null or kNone the likelihood's own level (the flicker bank at the larger of its point and
+// upper σ). rw_prior_var_out receives
 // the random walk's prior variance that goes with it (K²·D/6 for a raised walk, else rw_prior_var). The one rule
 // for the search below and for a likelihood re-run under the raise (diagnose.cpp: one-turn hysteresis). O(1).
 StochasticModel with_wander(const StochasticModel& m, const WholeLogWander* w, double duration_s, double rw_prior_var,

@@ -185,7 +185,10 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     if (m.bank_sigma > 0) line += "; flicker bias instability B " + fmt("%.3g", m.flicker_B);
     if (r.wander[u].adopted)
       line += "; whole-log bias wander " + fmt("%.2g", r.wander[u].measured.ratio) + "x the static dwells' (" +
-              (r.wander[u].kind == "flicker" ? "flicker B " : "rate random walk ") + fmt("%.3g", r.wander[u].value) + ")";
+              (r.wander[u].kind == "flicker" ? "flicker B " : "rate random walk ") + fmt("%.3g", r.wander[u].value) +
+              (!std::isfinite(r.wander[u].walk_flicker_B) ? std::string()
+               : r.wander[u].walk_flicker_B > 0 ? " with flicker B " + fmt("%.3g", r.wander[u].walk_flicker_B) + " in place of the dwells'"
+                                                 : std::string(", which replaces the dwells' flicker")) + ")";
     if (m.K > 0) line += "; rate random walk " + fmt("%.3g", m.K);
     // A coarse output step is a noise finding too: it caps how well any static mean can be read.
     const auto& q = r.quant[u];
@@ -341,7 +344,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"ratio", num(r.wander[u].measured.ratio)}, {"limit_ratio", num(r.wander[u].measured.limit_ratio)}, {"gain", num(r.wander[u].measured.gain)}, {"max_abs_z", num(r.wander[u].measured.max_abs_z)}, {"jump_persist_z", num(r.wander[u].measured.jump_persist_z)}, {"whiteness_p", num(r.wander[u].measured.whiteness_p)},
                                                  {"autocorr_sq", num(r.wander[u].measured.autocorr_sq)}, {"line_p", num(r.wander[u].measured.line_p)},
                                                  {"line_period_s", num(r.wander[u].measured.line_period_s)},
-                                                 {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
+                                                 {"walk_flicker_B", num(r.wander[u].walk_flicker_B)}, {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
                                             {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))},
                                             {"structure_within_rounding", r.wander[u].within_rounding},

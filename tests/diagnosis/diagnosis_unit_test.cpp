@@ -247,26 +247,36 @@ StochasticModel faint_flicker_model(double N, int n, double dur_s, std::vector<d
   return m;
 }
 
+// Rows [z | 1] of n blocks of dur_s: 0.3 + bias(i, w_i) + white block noise, where w is a random walk of K
+// (unit/√s) drawn from `seed`, in that order per block (the bias function decides whether the walk is in it).
+template <class Bias>
+Eigen::MatrixXd walk_rows(int n, double dur_s, double N, double K, std::uint64_t seed, Bias bias) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01;
+  Eigen::MatrixXd rows(n, 2);
+  double rw = 0;
+  for (int i = 0; i < n; ++i) {
+    rw += K * std::sqrt(dur_s) * n01(rng);
+    rows(i, 0) = 0.3 + bias(i, rw) + N / std::sqrt(dur_s) * n01(rng);
+    rows(i, 1) = 1.0;  // the bias column the model fits
+  }
+  return rows;
+}
+
 TEST(DiagnosisNoiseModel, WholeLogWanderFindsARandomWalkAndRejectsAStepAndASine) {
   const int n = 600;
   const double dur_s = 5.0, N = 1e-3, K_true = 2e-4;  // white density; random walk, unit/√s
   std::vector<double> t, d;
   const StochasticModel m = faint_flicker_model(N, n, dur_s, t, d);
   auto run = [&](int kind, std::uint64_t seed) {
-    std::mt19937_64 rng(seed);
-    std::normal_distribution<double> n01;
-    Eigen::MatrixXd rows(n, 2);
-    double rw = 0;
-    for (int i = 0; i < n; ++i) {
-      rw += K_true * std::sqrt(dur_s) * n01(rng);
+    const Eigen::MatrixXd rows = walk_rows(n, dur_s, N, K_true, seed, [&](int i, double rw) {
       double bias = 0;
       if (kind == 0) bias = rw;
       if (kind == 1) bias = i >= n / 2 ? 0.02 : 0.0;                           // a step of ~45 block σ
       if (kind == 3 && i == n / 2) bias = 0.02;                                 // one outlying block of the same size
       if (kind == 2) bias = 0.01 * std::sin(2.0 * M_PI * t[static_cast<std::size_t>(i)] / 500.0);  // 500 s period
-      rows(i, 0) = 0.3 + bias + N / std::sqrt(dur_s) * n01(rng);
-      rows(i, 1) = 1.0;  // the bias column the model fits
-    }
+      return bias;
+    });
     return whole_log_wander(m, t, d, rows, 0.0, n * dur_s, 1e6);
   };
   auto best = [](const std::array<WholeLogWander, 2>& l) { return l[0].gain >= l[1].gain ? l[0] : l[1]; };
@@ -300,6 +310,37 @@ TEST(DiagnosisNoiseModel, WholeLogWanderFindsARandomWalkAndRejectsAStepAndASine)
       EXPECT_NEAR(l.line_period_s, 500.0, 25.0);
     }
   EXPECT_GE(raised, 2) << "the likelihood must want a raise for both (else the checks are not exercised)";
+}
+
+// Short dwells read the start of a random walk as flicker (its Allan deviation at their few-second lengths looks
+// like a floor). The whole log's walk must then be raised jointly with that flicker: raised beside it held, K
+// came out 36 % short on varied4 stoch-automotive-7 accel.y (1.58e-4 for blindgen's 2.48e-4, the dwells' flicker
+// B 1.67e-3) and the under-read wander left accel.temp_rate its evidence. Here a pure walk under a model whose
+// flicker matches the walk's Allan deviation at 30 s.
+TEST(DiagnosisNoiseModel, AWalkTheDwellsReadAsFlickerIsRaisedWithoutThatFlicker) {
+  const int n = 600;
+  const double dur_s = 5.0, N = 1e-3, K_true = 2e-4;
+  std::vector<double> t, d;
+  StochasticModel m = faint_flicker_model(N, n, dur_s, t, d);
+  const double B_dwells = K_true * std::sqrt(30.0 / 3.0) / 0.664;  // flicker floor 0.664 B = the walk's σ_A(30 s)
+  m.bank_sigma = m.bank_sigma_lik = B_dwells / flicker_B_of_sigma(1.0, m.bank_tau_s);
+  m.flicker_B = m.flicker_B_upper = B_dwells;
+  int near = 0, lowered = 0;
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    const Eigen::MatrixXd rows = walk_rows(n, dur_s, N, K_true, seed, [](int, double rw) { return rw; });
+    const WholeLogWander w = whole_log_wander(m, t, d, rows, 0.0, n * dur_s, 1e6)[1];
+    ASSERT_EQ(w.kind, WholeLogWander::kRandomWalk) << seed;
+    near += w.K > K_true / 1.5 && w.K < 1.5 * K_true;
+    lowered += w.bank_sigma < 0.5 * m.bank_sigma;
+    // with_wander applies the walk with its own flicker: the one rule for every re-run under the raise
+    double rw0 = 0;
+    const StochasticModel mw = with_wander(m, &w, n * dur_s, 0.0, rw0);
+    EXPECT_EQ(mw.K, w.K);
+    EXPECT_EQ(mw.bank_sigma, w.bank_sigma);
+    EXPECT_NEAR(rw0, w.K * w.K * n * dur_s / 6.0, 1e-12 * rw0);
+  }
+  EXPECT_GE(near, 5) << "K within a factor 1.5 of the truth";
+  EXPECT_GE(lowered, 5) << "the flicker the dwells read is given up for the walk";
 }
 
 // The periodic-bias check must not fire on wander whose shape differs from the model's. A random walk beside a
@@ -520,15 +561,21 @@ TEST(DiagnosisPipeline, ARandomWalkBiasIsNotCalledUnexplained) {
     });
   };
   const Options o;
+  int exercised = 0;
   for (unsigned seed : {1u, 4u, 6u}) {
     VectorSource src(make_log(seed, 0.0));
     const DiagnosisResult r = diagnose(src, basic_model(), o);
     ASSERT_TRUE(r.wander[4].adopted) << seed;
-    EXPECT_GT(r.gap_after.chi2_dof[4], o.unexplained_chi2_dof) << seed << ": the marginal held-out chi2 (else not exercised)";
+    std::printf("seed %u: marginal %.3f, under the wander %.3f\n", seed, r.gap_after.chi2_dof[4], r.gap_after.chi2_dof_wander[4]);
+    exercised += r.gap_after.chi2_dof[4] > o.unexplained_chi2_dof;
     EXPECT_LT(r.gap_after.chi2_dof_wander[4], 1.5) << seed << ": measured 0.78-0.92";
     EXPECT_TRUE(r.unexplained.empty()) << seed;
     EXPECT_TRUE(r.selected.empty()) << seed;
   }
+  // The marginal held-out χ² must exceed 3 on some of them, else the GLS rule is not exercised. Since stop 38 the
+  // walk is raised jointly with the dwells' flicker, which reads it larger: seed 6's marginal χ²/dof fell from 4.8
+  // to 2.6 (seed 1 and 4 stay above 3).
+  EXPECT_GE(exercised, 2) << "the marginal held-out chi2 above 3 on at least two seeds";
   VectorSource src(make_log(4u, 3e-4));
   const DiagnosisResult r = diagnose(src, basic_model(), o);
   EXPECT_FALSE(r.wander[4].adopted);
@@ -1718,6 +1765,47 @@ TEST(DiagnosisPipeline, AHysteresisFlipInsideASoakIsNotReadAsBiasInstability) {
       ASSERT_GT(p.sigma, 0.0);
       EXPECT_NEAR(p.value, h, 3.0 * p.sigma) << "measured 1.4997e-4 +/- 1.6e-6";
     }
+}
+
+// A bias step the catalog does not have (a jump of the sensor's own bias, not a hysteresis flip) inside a soak
+// must not read as bias instability either: left in the soak's Allan record, it raised the dwells' noise until the
+// axis was "at noise" (varied8 ooc-bias_step-0: a 3.3e-3 m/s² accel.z step read as flicker B 1.1e-3, 40x the other
+// axes'). The run is cut at its most likely level step, and the axis is named unexplained. The same log as above,
+// with the soak's temperature straight (no turn, so no hysteresis state changes in it) and gyro.z stepping by s.
+TEST(DiagnosisPipeline, ABiasStepInsideASoakIsNotReadAsBiasInstability) {
+  const double fs = 100.0, dwell_s = 8.0, soak_s = 600.0, step = 3e-4;
+  const std::vector<Pose> poses = two_axis_tilts();
+  std::mt19937_64 rng(7);
+  std::vector<Sample> log;
+  int seg = 0;
+  bool stepped = false;
+  auto add = [&](const Pose& f, double T0_C, double T1_C, double dur_s, bool step_here) {
+    const int n = static_cast<int>(dur_s * fs);
+    for (int i = 0; i < n; ++i) {
+      Sample s = referenced_sample(static_cast<double>(log.size()) / fs, seg);
+      s.temp_C = T0_C + (T1_C - T0_C) * static_cast<double>(i) / n;
+      white_static_outputs(s, f, 1e-3, 3e-4, rng);
+      stepped = stepped || (step_here && i >= static_cast<int>(0.37 * n));
+      if (stepped) s.y[5] += step;
+      log.push_back(s);
+    }
+    ++seg;
+  };
+  const double step_C = 10.0 / static_cast<double>(poses.size());
+  for (std::size_t k = 0; k < poses.size(); ++k)  // cooling 25 -> 15
+    add(poses[k], 25.0 - step_C * static_cast<double>(k), 25.0 - step_C * static_cast<double>(k + 1), dwell_s, false);
+  add(poses[0], 15.0, 17.0, soak_s, true);
+  const double up_C = 18.0 / static_cast<double>(poses.size());
+  for (std::size_t k = 0; k < poses.size(); ++k)  // heating 17 -> 35
+    add(poses[k], 17.0 + up_C * static_cast<double>(k), 17.0 + up_C * static_cast<double>(k + 1), dwell_s, false);
+  VectorSource src(log);
+  const DiagnosisResult r = diagnose(src, basic_model(), Options{});
+  const double Bz = r.stoch[5].flicker_B, Bx = r.stoch[3].flicker_B;
+  EXPECT_LT(Bz, 0.1 * step) << "gyro.z flicker B " << Bz << " (gyro.x " << Bx << "): the step inside the soak's Allan record";
+  bool named = false;
+  for (const auto& u : r.unexplained) named = named || u.axis == "gyro.z";
+  EXPECT_TRUE(named) << "a bias step is no catalog effect: gyro.z must be named unexplained";
+  for (const auto& u : r.unexplained) EXPECT_EQ(u.axis, "gyro.z") << "only the stepped axis";
 }
 
 // temp_hysteresis's threshold is the sensor's own: profiled, not assumed (docs/diagnosis.md § temp_hysteresis).
