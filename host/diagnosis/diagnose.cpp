@@ -3385,11 +3385,8 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       const auto& w = R.wander[ua];
       if (w.adopted || w.kind.empty() || w.beyond_limit || !(w.measured.ratio > 1.2) || !(w.measured.gain > 3.84)) continue;
       (w.kind == "flicker" ? ow.wander_B : ow.wander_K)[ua] = w.value;
-      // A walk whose joint maximum lowered the flicker the dwells show (with_wander's level: none where they show
-      // none) carries that flicker with it.
-      const StochasticModel& st = R.stoch[ua];
-      const double held = st.bank_sigma > 0 ? std::max(st.bank_sigma, st.bank_sigma_lik) : 0.0;
-      if (w.kind == "random_walk" && w.measured.bank_sigma < held) ow.wander_K_B[ua] = w.measured.B;
+      // A walk whose joint maximum lowered the flicker the dwells show carries that flicker with it.
+      if (w.kind == "random_walk" && w.measured.flicker_lowered) ow.wander_K_B[ua] = w.measured.B;
       char buf[360];
       std::snprintf(buf, sizeof buf,
                     "%s: the whole log's bias wander is %.2g x what the static dwells show (Allan deviation at a quarter "
@@ -3415,10 +3412,9 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       // An adopted axis is not re-estimated: it keeps the estimate that adopted it.
       for (std::size_t a = 0; a < static_cast<std::size_t>(kNumAxes); ++a)
         if (R.wander[a].adopted) {
-          const double walk_B = R.wander[a].walk_flicker_B;  // the re-run's (set where it carried the walk's flicker)
           R.wander[a] = seen[a];
           R.wander[a].adopted = true;
-          R.wander[a].walk_flicker_B = walk_B;
+          R.wander[a].walk_flicker_B = ow.wander_K_B[a];
         }
       R.warnings.insert(R.warnings.end(), notes.begin(), notes.end());
     }

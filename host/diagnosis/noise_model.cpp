@@ -560,6 +560,7 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
           w.K = k;
           w.bank_sigma = mk.bank_sigma;
           w.B = mk.bank_sigma > 0 ? flicker_B_of_sigma(mk.bank_sigma, m.bank_tau_s) : 0.0;
+          w.flicker_lowered = j > 0;
           w.limit_ratio = ratio;
           w.ratio = std::sqrt(mk.avar(tau_long) / avar_seen);
         } else if (v > (j == 0 ? line_best : fl_best) + 10.0) {  // j = 0: past this line's maximum, as above

@@ -95,6 +95,7 @@ struct WholeLogWander {
   // kFlicker: the maximiser and its flicker B. kRandomWalk: the flicker that goes with the walk (the walk is raised
   // jointly with it, from the likelihood's level down to none: short dwells read the start of a walk as flicker).
   double bank_sigma = 0, B = 0;
+  bool flicker_lowered = false;  // kRandomWalk: that flicker is below the level the search started from
   double K = 0;                  // kRandomWalk: the maximiser
   double ratio = 1;              // Allan deviation at D/4: raised model / the level the dwells show
   // The same against the likelihood's level (the flicker's upper limit where the dwells show none, else equal to
