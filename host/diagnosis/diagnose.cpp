@@ -1343,8 +1343,14 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     if (std::isfinite(o.wander_B[ua]) && !m.bank_tau_s.empty()) {
       const double unit = flicker_B_of_sigma(1.0, m.bank_tau_s);
       if (unit > 0) {
-        mv.bank_sigma = mv.bank_sigma_lik = o.wander_B[ua] / unit;
-        mv.flicker_B = mv.flicker_B_upper = o.wander_B[ua];
+        // A floor between the dwells' point estimate and the likelihood's level raises the point only.
+        const double s = o.wander_B[ua] / unit;
+        mv.bank_sigma = s;
+        mv.flicker_B = o.wander_B[ua];
+        if (!(m.bank_sigma > 0 && s < m.bank_sigma_lik)) {
+          mv.bank_sigma_lik = s;
+          mv.flicker_B_upper = o.wander_B[ua];
+        }
         R.wander[ua].adopted = true;
         R.wander[ua].kind = "flicker";
         R.wander[ua].value = o.wander_B[ua];
@@ -2088,10 +2094,13 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // describes, so its "hysteresis" falls to noise; a real hysteresis is one jump at the turn that a stationary
   // wander cannot make, and stays far above the level. Returns the p-value (−1: nothing to test).
   // The likelier of the two whole-log raises (nullptr: neither improves the likelihood).
-  auto likelier = [](const std::array<WholeLogWander, 2>& lines) {
+  // A line below the likelihood's level (WholeLogWander::below_likelihood) answers no likelihood question: only the
+  // final model's verdict floor may take it (below).
+  auto raises = [](const WholeLogWander& l) { return l.kind != WholeLogWander::kNone && !l.below_likelihood; };
+  auto likelier = [&](const std::array<WholeLogWander, 3>& lines) {
     const WholeLogWander* pick = nullptr;
     for (const auto& l : lines)
-      if (l.kind != WholeLogWander::kNone && (!pick || l.gain > pick->gain)) pick = &l;
+      if (raises(l) && (!pick || l.gain > pick->gain)) pick = &l;
     return pick;
   };
   // The whole log's wander of axis a under the model `ids` (both lines, noise_model.h), and why a line's maximiser
@@ -2104,8 +2113,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     return whole_log_wander(R.stoch[ua], blk_t, blk_dur, design_rows(ad, f.kept, 0), R.rw_prior_var[ua], R.duration_s,
                             std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg);
   };
-  auto wander_reason = [&](const std::array<WholeLogWander, 2>& lines, const WholeLogWander& l) -> const char* {
-    const bool rw_likelier = lines[1].kind != WholeLogWander::kNone && (lines[0].kind == WholeLogWander::kNone || lines[1].gain >= lines[0].gain);
+  auto wander_reason = [&](const std::array<WholeLogWander, 3>& lines, const WholeLogWander& l) -> const char* {
+    const bool rw_likelier = raises(lines[1]) && (!raises(lines[0]) || lines[1].gain >= lines[0].gain);
     const double limit = l.kind == WholeLogWander::kRandomWalk && rw_likelier ? o.wander_rw_max_factor : o.wander_max_factor;
     return l.limit_ratio > limit ? "too_large"
            : l.max_abs_z > o.wander_max_z && l.jump_persist_z > o.wander_step_persist_z ? "jump"
@@ -2114,11 +2123,11 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   };
   // The likelier line, unless it fails a check and the other passes them (flicker and random walk differ in shape
   // beyond a quarter of the log, where the likelihood tells them apart least).
-  auto wander_pick = [&](const std::array<WholeLogWander, 2>& lines) {
+  auto wander_pick = [&](const std::array<WholeLogWander, 3>& lines) {
     const WholeLogWander* pick = likelier(lines);
     if (pick && *wander_reason(lines, *pick)) {
       const WholeLogWander& other = pick == &lines[0] ? lines[1] : lines[0];
-      if (other.kind != WholeLogWander::kNone && !*wander_reason(lines, other) && other.gain > 3.84) pick = &other;
+      if (raises(other) && !*wander_reason(lines, other) && other.gain > 3.84) pick = &other;
     }
     return pick;
   };
@@ -2655,7 +2664,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         const auto ua = static_cast<std::size_t>(a);
         any = any || R.wander[ua].adopted;
         if (!o.whole_log_wander) continue;
-        const std::array<WholeLogWander, 2> lines = wander_lines(a, without);
+        const std::array<WholeLogWander, 3> lines = wander_lines(a, without);
         const WholeLogWander* pick = wander_pick(lines);
         if (!pick || *wander_reason(lines, *pick) || !(pick->ratio > 1.2) || !(pick->gain > 3.84)) continue;
         AxisNoise& n = an[static_cast<std::size_t>(k)];
@@ -2834,14 +2843,20 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     for (int a = 0; a < kNumAxes; ++a) {
       const auto ua = static_cast<std::size_t>(a);
       if (R.wander[ua].adopted) continue;
-      const std::array<WholeLogWander, 2> lines = wander_lines(a, cur);
+      const std::array<WholeLogWander, 3> lines = wander_lines(a, cur);
       auto reason = [&](const WholeLogWander& l) { return wander_reason(lines, l); };
       if (std::getenv("IMUFORGE_DIAG_TRACE"))
         for (const auto& l : lines)
           std::fprintf(stderr, "wander %s %s: ratio %.2f gain %.1f max|z| %.2f (next %.2f) LB p %.2g sum r^2 %.3f line p %.2g period %.0f s\n",
-                       axis_name(a), l.kind == WholeLogWander::kFlicker ? "flicker" : l.kind == WholeLogWander::kRandomWalk ? "rw" : "none",
+                       axis_name(a), l.below_likelihood ? "floor" : l.kind == WholeLogWander::kFlicker ? "flicker" : l.kind == WholeLogWander::kRandomWalk ? "rw" : "none",
                        l.ratio, l.gain, l.max_abs_z, l.jump_persist_z, l.whiteness_p, l.autocorr_sq, l.line_p, l.line_period_s);
       const WholeLogWander* pick = wander_pick(lines);
+      // No raise above the likelihood's level would be carried, but the whole log prefers a floor between the
+      // dwells' point estimate and that level (noise_model.h, below_likelihood): the verdict's floor takes it.
+      const WholeLogWander& floor = lines[2];
+      if (floor.below_likelihood && !*reason(floor) && floor.ratio > 1.2 && floor.evidence() > 3.84 &&
+          (!pick || *reason(*pick) || !(pick->ratio > 1.2) || !(pick->gain > 3.84)))
+        pick = &floor;
       if (!pick) continue;
       auto& w = R.wander[ua];
       w.kind = pick->kind == WholeLogWander::kFlicker ? "flicker" : "random_walk";
@@ -3383,7 +3398,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     for (int a = 0; a < kNumAxes; ++a) {
       const auto ua = static_cast<std::size_t>(a);
       const auto& w = R.wander[ua];
-      if (w.adopted || w.kind.empty() || w.beyond_limit || !(w.measured.ratio > 1.2) || !(w.measured.gain > 3.84)) continue;
+      if (w.adopted || w.kind.empty() || w.beyond_limit || !(w.measured.ratio > 1.2) || !(w.measured.evidence() > 3.84)) continue;
       (w.kind == "flicker" ? ow.wander_B : ow.wander_K)[ua] = w.value;
       // A walk whose joint maximum lowered the flicker the dwells show carries that flicker with it.
       if (w.kind == "random_walk" && w.measured.flicker_lowered) ow.wander_K_B[ua] = w.measured.B;
@@ -3391,7 +3406,8 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       std::snprintf(buf, sizeof buf,
                     "%s: the whole log's bias wander is %.2g x what the static dwells show (Allan deviation at a quarter "
                     "of the log; as %s %.3g; -2 log L gain %.1f): carried into the likelihood and the held-out variances",
-                    axis_name(a), w.measured.ratio, w.kind == "flicker" ? "flicker B" : "rate random walk K", w.value, w.measured.gain);
+                    axis_name(a), w.measured.ratio, w.kind == "flicker" ? "flicker B" : "rate random walk K", w.value,
+                    w.measured.evidence());
       notes.push_back(buf);
     }
     if (!notes.empty()) {

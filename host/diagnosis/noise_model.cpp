@@ -391,7 +391,13 @@ StochasticModel with_wander(const StochasticModel& m, const WholeLogWander* w, d
   StochasticModel out = m;
   out.bank_sigma = std::max(m.bank_sigma, m.bank_sigma_lik);  // the likelihood's own level
   rw_prior_var_out = rw_prior_var;
-  if (w && w->kind == WholeLogWander::kFlicker) out.bank_sigma = out.bank_sigma_lik = w->bank_sigma;
+  if (w && w->kind == WholeLogWander::kFlicker) {
+    // Below the likelihood's level the raise is the verdict's floor only; the likelihood keeps its own level.
+    if (w->below_likelihood)
+      out.bank_sigma = w->bank_sigma;
+    else
+      out.bank_sigma = out.bank_sigma_lik = w->bank_sigma;
+  }
   if (w && w->kind == WholeLogWander::kRandomWalk) {
     // A walk raised jointly with the flicker that goes with it (whole_log_wander).
     out.bank_sigma = out.bank_sigma_lik = w->bank_sigma;
@@ -401,11 +407,11 @@ StochasticModel with_wander(const StochasticModel& m, const WholeLogWander* w, d
   return out;
 }
 
-std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
+std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
                                                double rw_prior_var, double duration_s, double ratio_max,
                                                const std::vector<int>* seg_of) {
-  std::array<WholeLogWander, 2> out;
+  std::array<WholeLogWander, 3> out;
   const int n = static_cast<int>(rows.rows()), c = static_cast<int>(rows.cols()), P = c - 1;
   if (n <= P + 2 || !(duration_s > 0)) return out;
   Eigen::MatrixXd innov(n, c);
@@ -535,6 +541,35 @@ std::array<WholeLogWander, 2> whole_log_wander(const StochasticModel& m, const s
       }
     }
     if (w.kind != WholeLogWander::kNone) finish(w, line_best);
+  }
+  // The verdict's floor: where the dwells' point estimate of the flicker is below the likelihood's level, the
+  // flicker's maximiser between the two, and its gain over the point estimate (WholeLogWander::below_likelihood).
+  if (m.bank_sigma > 0 && m.bank_sigma < flicker_from && !no_flicker_seen) {
+    StochasticModel mf = m0;
+    mf.bank_sigma = mf.bank_sigma_lik = m.bank_sigma;
+    const double avar_point = mf.avar(tau_long);
+    const double base_seen = m2ll(mf, rw_prior_var);
+    WholeLogWander& w = out[2];
+    double line_best = base_seen, s_best = 0;
+    for (double s = m.bank_sigma * step;; s *= step) {
+      const bool last = !(s * step < flicker_from);
+      if (last) s = flicker_from;  // the likelihood's own level closes the range (its −2 log L is `base`)
+      mf.bank_sigma = mf.bank_sigma_lik = s;
+      const double v = last ? base : m2ll(mf, rw_prior_var);
+      if (std::isfinite(v) && v < line_best) line_best = v, s_best = s;
+      if (last) break;
+    }
+    if (s_best > 0) {
+      w.kind = WholeLogWander::kFlicker;
+      w.below_likelihood = true;
+      w.bank_sigma = s_best;
+      w.B = flicker_B_of_sigma(s_best, m.bank_tau_s);
+      mf.bank_sigma = mf.bank_sigma_lik = s_best;
+      w.limit_ratio = std::sqrt(mf.avar(tau_long) / avar0);
+      w.ratio = std::sqrt(mf.avar(tau_long) / avar_point);  // against the point estimate the verdict carries
+      finish(w, line_best);
+      w.gain_seen = base_seen - line_best;
+    }
   }
   // Random walk: K raised from its fit, or from where it adds 1 % to the Allan variance at D/4, jointly with the
   // flicker: short dwells read the start of a random walk as flicker, and a walk raised beside that flicker held

@@ -188,7 +188,8 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
               (r.wander[u].kind == "flicker" ? "flicker B " : "rate random walk ") + fmt("%.3g", r.wander[u].value) +
               (!std::isfinite(r.wander[u].walk_flicker_B) ? std::string()
                : r.wander[u].walk_flicker_B > 0 ? " with flicker B " + fmt("%.3g", r.wander[u].walk_flicker_B) + " in place of the dwells'"
-                                                 : std::string(", which replaces the dwells' flicker")) + ")";
+                                                 : std::string(", which replaces the dwells' flicker")) +
+              (r.wander[u].measured.below_likelihood ? ", within the dwells' upper limit" : "") + ")";
     if (m.K > 0) line += "; rate random walk " + fmt("%.3g", m.K);
     // A coarse output step is a noise finding too: it caps how well any static mean can be read.
     const auto& q = r.quant[u];
@@ -341,7 +342,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"gm_tau_s", num(m.gm_tau_s)}, {"flicker_B", num(m.flicker_B)}, {"flicker_B_upper", num(m.flicker_B_upper)},
                                                  {"K", num(m.K)}}},
                            {"whole_log_wander", {{"kind", r.wander[u].kind}, {"value", num(r.wander[u].value)},
-                                                 {"ratio", num(r.wander[u].measured.ratio)}, {"limit_ratio", num(r.wander[u].measured.limit_ratio)}, {"gain", num(r.wander[u].measured.gain)}, {"max_abs_z", num(r.wander[u].measured.max_abs_z)}, {"jump_persist_z", num(r.wander[u].measured.jump_persist_z)}, {"whiteness_p", num(r.wander[u].measured.whiteness_p)},
+                                                 {"ratio", num(r.wander[u].measured.ratio)}, {"limit_ratio", num(r.wander[u].measured.limit_ratio)}, {"gain", num(r.wander[u].measured.gain)}, {"below_likelihood", r.wander[u].measured.below_likelihood}, {"gain_over_point", num(r.wander[u].measured.gain_seen)}, {"max_abs_z", num(r.wander[u].measured.max_abs_z)}, {"jump_persist_z", num(r.wander[u].measured.jump_persist_z)}, {"whiteness_p", num(r.wander[u].measured.whiteness_p)},
                                                  {"autocorr_sq", num(r.wander[u].measured.autocorr_sq)}, {"line_p", num(r.wander[u].measured.line_p)},
                                                  {"line_period_s", num(r.wander[u].measured.line_period_s)},
                                                  {"walk_flicker_B", num(r.wander[u].walk_flicker_B)}, {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},

@@ -78,13 +78,15 @@ bool reference_kink(const R* pp, const R* p, const R& a, const R& b, const R* n,
 // Below a sample interval the probe still tells the sign: with no lag, the output sample stamped at the row
 // that first shows the new pose reads the new pose whatever the step's place in the row interval (and the
 // one before reads the old), so a step read late (n_old ≥ 1) or early (n_new ≥ 1) is a direct observation
-// of a lag. A full-step misreading cannot come from noise (the thresholds below), so 10 steps read late, or 6
-// and a tenth of them, and none read early, is decisive (`sign`), where the sines alone may leave a latency
-// of a fraction of a sample below significance. O(n_samples + n_steps · W) time (each step scans its window of
+// of a lag. A full-step misreading cannot come from noise (the thresholds below), so kStepLagDecisiveCount steps
+// read late and none read early (or the reverse) is decisive (`sign`), where the sines alone may leave a latency
+// of a fraction of a sample below significance (step_lag.cpp says why 4). O(n_samples + n_steps · W) time (each step scans its window of
 // W samples), O(W + n_steps) memory.
 // A change a probe reads a lag from must stand clear of the uncalibrated output's bias, scale and misalignment
 // errors by a wide margin (per sensor {accel m/s², gyro rad/s}): a step's largest component, a window's range.
 inline constexpr double kLagProbeMinChange[2] = {2.0, 0.3};
+// One-sided misreadings that name a lag below one sample (StepLag::sign).
+inline constexpr int kStepLagDecisiveCount = 4;
 
 struct StepLag {
   bool valid = false;

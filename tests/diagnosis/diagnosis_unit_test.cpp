@@ -279,7 +279,7 @@ TEST(DiagnosisNoiseModel, WholeLogWanderFindsARandomWalkAndRejectsAStepAndASine)
     });
     return whole_log_wander(m, t, d, rows, 0.0, n * dur_s, 1e6);
   };
-  auto best = [](const std::array<WholeLogWander, 2>& l) { return l[0].gain >= l[1].gain ? l[0] : l[1]; };
+  auto best = [](const std::array<WholeLogWander, 3>& l) { return l[0].gain >= l[1].gain ? l[0] : l[1]; };
   int found = 0;
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     const WholeLogWander w = best(run(0, seed));
@@ -299,7 +299,8 @@ TEST(DiagnosisNoiseModel, WholeLogWanderFindsARandomWalkAndRejectsAStepAndASine)
       EXPECT_GT(l.max_abs_z, 6.0) << "a step is one jump, not wander";
       EXPECT_GT(l.jump_persist_z, 3.0) << "and a level step fits it better than one outlying block";
     }
-  for (const auto& l : spike) {
+  for (int i = 0; i < 2; ++i) {  // the flicker and random-walk lines (the model has no floor line: point = upper)
+    const WholeLogWander& l = spike[static_cast<std::size_t>(i)];
     EXPECT_GT(l.max_abs_z, 6.0) << "one outlying block is as large an innovation as the step";
     EXPECT_LT(l.jump_persist_z, 3.0) << "but one outlying block fits it at least as well as a step";
   }
@@ -310,6 +311,62 @@ TEST(DiagnosisNoiseModel, WholeLogWanderFindsARandomWalkAndRejectsAStepAndASine)
       EXPECT_NEAR(l.line_period_s, 500.0, 25.0);
     }
   EXPECT_GE(raised, 2) << "the likelihood must want a raise for both (else the checks are not exercised)";
+}
+
+// The dwells' point estimate of a long flicker is short of the truth, their upper level above it (varied9
+// null-tactical-2: a 300 s bias instability read B 3.4e-6, upper 4.9e-6, truth 5.8e-6). The likelihood carries
+// the upper level and no raise above it is likelier, but the held-out verdict judged the point, and gyro.z was
+// named unexplained at χ²/dof 5.8 on a sensor with nothing beyond the model. The whole log's flicker between the
+// two is the verdict's floor (the third line): found where the truth lies between them, with its gain over the
+// point; not found (or not material) where the point is the truth; and a raise of the floor only.
+TEST(DiagnosisNoiseModel, TheWholeLogsFlickerBetweenThePointAndTheUpperLevelIsTheVerdictsFloor) {
+  const int n = 600;
+  const double dur_s = 5.0, N = 1e-3, s_true = 2e-3;  // white density; flicker bank state σ
+  std::vector<double> t, d;
+  StochasticModel m = faint_flicker_model(N, n, dur_s, t, d);
+  m.bank_tau_s = flicker_bank_taus(20.0, n * dur_s);  // states longer than a block: their block means are their values
+  auto rows_of = [&](double s, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> n01;
+    std::vector<double> x(m.bank_tau_s.size());
+    for (double& xi : x) xi = s * n01(rng);
+    Eigen::MatrixXd rows(n, 2);
+    for (int i = 0; i < n; ++i) {
+      double bias = 0;
+      for (std::size_t g = 0; g < x.size(); ++g) {
+        const double phi = std::exp(-dur_s / m.bank_tau_s[g]);
+        if (i > 0) x[g] = phi * x[g] + s * std::sqrt(1.0 - phi * phi) * n01(rng);
+        bias += x[g];
+      }
+      rows(i, 0) = 0.3 + bias + N / std::sqrt(dur_s) * n01(rng);
+      rows(i, 1) = 1.0;
+    }
+    return rows;
+  };
+  m.bank_sigma = 0.5 * s_true;      // the dwells' point estimate
+  m.bank_sigma_lik = 2.0 * s_true;  // and their upper level
+  int found = 0, quiet = 0;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    const auto lines = whole_log_wander(m, t, d, rows_of(s_true, seed), 0.0, n * dur_s, 1e6);
+    const WholeLogWander& f = lines[2];
+    EXPECT_EQ(lines[0].kind, WholeLogWander::kNone) << seed << ": nothing above the likelihood's level";
+    if (f.kind != WholeLogWander::kFlicker) continue;
+    EXPECT_TRUE(f.below_likelihood);
+    EXPECT_GT(f.bank_sigma, m.bank_sigma);
+    EXPECT_LE(f.bank_sigma, m.bank_sigma_lik * (1.0 + 1e-12));
+    EXPECT_GE(f.gain_seen, f.gain);
+    double rw0 = 0;
+    const StochasticModel v = with_wander(m, &f, n * dur_s, 0.0, rw0);
+    EXPECT_EQ(v.bank_sigma, f.bank_sigma) << "the verdict's floor is raised";
+    EXPECT_EQ(std::max(v.bank_sigma, v.bank_sigma_lik), m.bank_sigma_lik) << "the likelihood keeps its own level";
+    if (f.gain_seen > 3.84 && f.ratio > 1.2 && f.bank_sigma > 0.5 * s_true * 1.4 && f.bank_sigma < 2.0 * s_true) ++found;
+  }
+  EXPECT_GE(found, 4) << "the floor raised from the point toward the truth, material, in 4 of 5 logs";
+  for (std::uint64_t seed = 11; seed <= 15; ++seed) {
+    const auto lines = whole_log_wander(m, t, d, rows_of(0.5 * s_true, seed), 0.0, n * dur_s, 1e6);
+    if (!(lines[2].kind == WholeLogWander::kFlicker && lines[2].gain_seen > 3.84 && lines[2].ratio > 1.2)) ++quiet;
+  }
+  EXPECT_GE(quiet, 4) << "where the point is the truth, no material floor in 4 of 5 logs";
 }
 
 // Short dwells read the start of a random walk as flicker (its Allan deviation at their few-second lengths looks
@@ -1416,8 +1473,8 @@ TEST(DiagnosisPipeline, GyroClockWithoutMotionWithinSegmentsKeepsTheStepsShift) 
 // = 0, so the withheld segments' MEANS cannot see it while every block within a sine does (varied5 random-2:
 // 0.49 ms at 100 Hz, ΔBIC −6e4, held-out shrink −2 % on segment means, not selected). Judged on the withheld
 // segments' blocks, it is selected, its magnitude within 3σ of the truth; the accelerometer's is not.
-// A twentieth of a sample misreads about 5 of the ~90 steps: too few for the steps' sign rule (10), so this is
-// the held-out path alone.
+// A twentieth of a sample misreads about 5 of the ~90 steps, one way: since stop 39 enough for the steps' sign
+// rule (kStepLagDecisiveCount), which keeps the timing in the model where the segment means alone would not.
 TEST(DiagnosisPipeline, ASubSampleLatencyOnWholeSinePeriodsIsJudgedOnTheBlocks) {
   const double seg_s = 4.0037;  // steps fall anywhere within a row interval; 2.0 periods of the 0.5 Hz sine
   const int n_seg = 120;
@@ -1443,9 +1500,13 @@ TEST(DiagnosisPipeline, ASubSampleLatencyOnWholeSinePeriodsIsJudgedOnTheBlocks) 
         }
     if (!blocks) {
       // What the segment means say (the defect this guards against): an in-sample LR of ~6e4 and a held-out
-      // gain below the 2·dof the selection asks for, so not selected.
-      EXPECT_FALSE(gyro_timing);
+      // gain below the 2·dof the selection asks for, so not selected on them; the timing stays only on the steps'
+      // one-sided misreadings, and the warnings say so.
       EXPECT_LT(gain, 12.0);
+      bool by_steps = false;
+      for (const auto& w : r.warnings) by_steps = by_steps || w.find("reference steps late (a lag below one sample)") != std::string::npos;
+      EXPECT_TRUE(by_steps);
+      EXPECT_EQ(gyro_timing, by_steps);
       continue;
     }
     EXPECT_TRUE(gyro_timing);
