@@ -3017,24 +3017,37 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
                         return std::min(4, static_cast<int>(5.0 * b.t / D)) == i;
                       }});
   }
+  const double t_log = blocks.empty() ? 0.0 : blocks.front().t0;
   for (int a = 0; a < kNumAxes; ++a) {
+    const auto ua = static_cast<std::size_t>(a);
+    std::vector<double> ct, cd, cu, cdiag;
+    std::vector<int> cseg;
     for (const auto& d : defs) {
       Cell c;
       c.condition = d.cond;
       c.label = d.label;
       c.axis = a;
       double sw = 0, swr = 0, sr2 = 0;
+      ct.clear(), cd.clear(), cu.clear(), cdiag.clear(), cseg.clear();
       for (int b = 0; b < B; ++b) {
-        if (!d.pred(blocks[static_cast<std::size_t>(b)], a)) continue;
-        const double r = rb[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)], pv = pvb[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)];
+        const Block& blk = blocks[static_cast<std::size_t>(b)];
+        if (!d.pred(blk, a)) continue;
+        const double r = rb[ua][static_cast<std::size_t>(b)], pv = pvb[ua][static_cast<std::size_t>(b)];
         sw += 1.0 / pv;
         swr += r / pv;
         sr2 += r * r / pv;
         ++c.n_blocks;
+        // The mean's standard error under the verdict's noise: the blocks of a cell share the slow bias
+        // (noise_model.h weighted_sum_variance); each block's own variance is its held-out one, the verdict's
+        // marginal (its random walk from the log's start, as across blocks) in place of the selection's.
+        const double dur = blk_dur[static_cast<std::size_t>(b)];
+        ct.push_back(blk.t), cd.push_back(dur), cu.push_back(1.0 / pv), cseg.push_back(blk.unit);
+        cdiag.push_back(pv - ax[ua].vr[b] + block_covariance(verdict_stoch[ua], blk.t, dur, blk.t, dur, true, t_log, rw0_v[ua]));
       }
       if (c.n_blocks == 0) continue;
       c.mean = swr / sw;
-      c.z = swr / std::sqrt(sw);
+      const double var = weighted_sum_variance(verdict_stoch[ua], ct, cd, cseg, cu, cdiag, t_log, rw0_v[ua]);
+      c.z = swr / std::sqrt(var > 0 ? var : sw);
       c.chi2_dof = sr2 / c.n_blocks;
       R.cells.push_back(c);
     }

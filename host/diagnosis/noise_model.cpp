@@ -609,6 +609,57 @@ std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const s
   return out;
 }
 
+double weighted_sum_variance(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
+                             const std::vector<int>& seg, const std::vector<double>& u, const std::vector<double>& diag,
+                             double t_start, double rw_prior_var) {
+  const std::size_t n = t_s.size();
+  double total = 0;
+  // Each correlated state: Σ_i Σ_j u_i α_i u_j α_j e^{−|t_j − t_i|/T}, the sum over i < j carried forward in time.
+  // cross[i] collects the i = j term of the same formula, which diag[i] replaces.
+  std::vector<double> cross(n, 0.0);
+  for (const auto& [s2, T] : m.gm_states(false)) {
+    double acc = 0, sum = 0;  // acc = Σ_{i<j} u_i α_i e^{−(t_j − t_i)/T}
+    for (std::size_t j = 0; j < n; ++j) {
+      double a = 1, v = 1;
+      gm_block(std::max(dur_s[j], 1e-9), T, a, v);
+      const double x = u[j] * a;
+      if (j > 0) acc *= std::exp(-std::max(t_s[j] - t_s[j - 1], 0.0) / T);
+      sum += 2.0 * x * acc + x * x;
+      acc += x;
+      cross[j] += s2 * a * a;
+    }
+    total += s2 * sum;
+  }
+  // Random walk: prior·(Σu)² + K² Σ_{i,j} u_i u_j (min(t_i, t_j) − t_start)⁺ = K² ∫ (Σ_{t_i > s} u_i)² ds.
+  double U = 0;
+  for (double x : u) U += x;
+  total += rw_prior_var * U * U;
+  if (m.K > 0) {
+    double tail = U, prev = t_start;
+    for (std::size_t k = 0; k < n; ++k) {
+      total += m.K * m.K * tail * tail * std::max(t_s[k] - prev, 0.0);
+      prev = std::max(prev, t_s[k]);
+      tail -= u[k];
+    }
+  }
+  // The per-segment bias, within a segment.
+  if (m.seg_bias_var > 0) {
+    double in_seg = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      in_seg += u[k];
+      if (k + 1 == n || seg[k + 1] != seg[k]) {
+        total += m.seg_bias_var * in_seg * in_seg;
+        in_seg = 0;
+      }
+    }
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    const double c = cross[k] + rw_prior_var + m.K * m.K * std::max(t_s[k] - t_start, 0.0) + m.seg_bias_var;
+    total += u[k] * u[k] * (diag[k] - c);
+  }
+  return total;
+}
+
 double block_covariance(const StochasticModel& m, double ti, double di, double tj, double dj, bool same, double t_start,
                         double rw_prior_var) {
   double c = 0;

@@ -203,6 +203,18 @@ estimator::NormalEquations gls_normal_equations(const StochasticModel& m, const 
                                                 const std::vector<char>* missing = nullptr, double* sum_log_S = nullptr,
                                                 Eigen::MatrixXd* innov_out = nullptr, Eigen::VectorXd* S_out = nullptr);
 
+// Variance of Σ u_i x_i over block means x_i in time order (mid times t_s ascending, durations dur_s, segment
+// ids seg) under m: Σ_i Σ_j u_i u_j cov(x_i, x_j), with block_covariance's terms across blocks (the GM and flicker
+// states at their point estimate, decaying with the time between the blocks; the random walk from t_start with
+// its prior rw_prior_var; the per-segment bias within a segment only), and diag[i] as the variance of x_i itself.
+// The cells of the report weigh held-out residuals of many blocks, which share the slow bias: the standard error
+// of their mean is this, not √Σ u_i² diag_i (varied9 null-tactical-2, an axis at its noise under a 300 s bias
+// instability: gyro.z's "rate: static" cell, 179 blocks, read z = −5.6 with the blocks taken as independent and
+// −1.5 with this). One pass per correlated state: O(n · states) time, O(n) extra memory.
+double weighted_sum_variance(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
+                             const std::vector<int>& seg, const std::vector<double>& u, const std::vector<double>& diag,
+                             double t_start, double rw_prior_var);
+
 // Covariance of two block means of one segment under the model (mid times ti, tj, durations di, dj);
 // i == j includes the white part. Used for the variance of a segment mean.
 double block_covariance(const StochasticModel& m, double ti, double di, double tj, double dj, bool same, double t_start,

@@ -313,6 +313,53 @@ TEST(DiagnosisNoiseModel, WholeLogWanderFindsARandomWalkAndRejectsAStepAndASine)
   EXPECT_GE(raised, 2) << "the likelihood must want a raise for both (else the checks are not exercised)";
 }
 
+// The cells' standard error: the O(n) sum against the double sum of block_covariance, on a model with every
+// correlated term (GM, a flicker bank, a random walk with its prior, a per-segment bias) over irregular blocks in
+// two segments. The per-segment bias is block_covariance's within a segment and absent across.
+TEST(DiagnosisNoiseModel, WeightedSumVarianceIsTheDoubleSumOfBlockCovariances) {
+  StochasticModel m;
+  m.N = 2e-3;
+  m.gm_sigma = 3e-4;
+  m.gm_tau_s = 40.0;
+  m.bank_tau_s = flicker_bank_taus(1.0, 3000.0);
+  m.bank_sigma = m.bank_sigma_lik = 1e-4;
+  m.K = 5e-6;
+  m.seg_bias_var = 4e-8;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  const int n = 60;
+  std::vector<double> t, d, u, diag;
+  std::vector<int> seg;
+  double now = 12.0;
+  for (int i = 0; i < n; ++i) {
+    d.push_back(0.5 + 9.5 * U(rng));
+    now += 0.5 * d.back() + (i == n / 2 ? 400.0 : 2.0 * U(rng));
+    t.push_back(now);
+    now += 0.5 * d.back();
+    seg.push_back(i < n / 2 ? 0 : 1);
+    u.push_back(0.2 + U(rng));
+    diag.push_back(block_covariance(m, t.back(), d.back(), t.back(), d.back(), true, 0.0, 1e-9) * (1.0 + U(rng)));
+  }
+  const double rw0 = 1e-9, t_start = 0.0;
+  double brute = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const auto I = static_cast<std::size_t>(i), J = static_cast<std::size_t>(j);
+      double c = i == j ? diag[I] : block_covariance(m, t[I], d[I], t[J], d[J], false, t_start, rw0);
+      if (i != j && seg[I] != seg[J]) c -= m.seg_bias_var;
+      brute += u[I] * u[J] * c;
+    }
+  const double fast = weighted_sum_variance(m, t, d, seg, u, diag, t_start, rw0);
+  EXPECT_NEAR(fast, brute, 1e-9 * std::fabs(brute));
+  // Independent blocks: the variance of a weighted mean is Σ u² diag, as the cells had it.
+  StochasticModel w;
+  w.N = 2e-3;
+  double white = 0;
+  for (int i = 0; i < n; ++i) white += u[static_cast<std::size_t>(i)] * u[static_cast<std::size_t>(i)] * diag[static_cast<std::size_t>(i)];
+  EXPECT_NEAR(weighted_sum_variance(w, t, d, seg, u, diag, t_start, 0.0), white, 1e-12 * white);
+  EXPECT_GT(fast, 1.5 * white) << "the shared slow bias must count (else the comparison proves nothing)";
+}
+
 // The dwells' point estimate of a long flicker is short of the truth, their upper level above it (varied9
 // null-tactical-2: a 300 s bias instability read B 3.4e-6, upper 4.9e-6, truth 5.8e-6). The likelihood carries
 // the upper level and no raise above it is likelier, but the held-out verdict judged the point, and gyro.z was
