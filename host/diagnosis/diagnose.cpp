@@ -3492,6 +3492,8 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   for (int si = 0; si < 2; ++si) {
     R.timing_shift_latency_s[static_cast<std::size_t>(si)] = shift[si].latency_s;
     R.timing_shift_ppm[static_cast<std::size_t>(si)] = shift[si].ppm;
+    const StepLag& L = lag[static_cast<std::size_t>(si)];
+    R.step_reading[static_cast<std::size_t>(si)] = {L.n_steps, L.n_late, L.n_early, L.sign};
   }
   // Reported timing = the shift the reference was re-evaluated at + the remaining linear correction.
   for (auto& pe : R.final_params) {

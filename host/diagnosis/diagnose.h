@@ -375,6 +375,14 @@ struct DiagnosisResult {
   std::vector<std::pair<std::string, std::string>> withdrawn_by_check;
   std::set<model::ParamId> final_ids;      // parameters of the final model (base + selected)
   std::array<double, 2> timing_shift_latency_s{}, timing_shift_ppm{};  // reference re-evaluated at this shift
+  // What the reference's instantaneous steps showed of each sensor's timing (step_lag.h probe_step_lag, accel and
+  // gyro): steps read, those the output read late or early by at least one sample, and the sign that decides a
+  // lag below one sample (0: none). The evidence behind a timing kept on the steps' sign, and a record of how
+  // often a sensor without a lag misreads a step (docs/diagnosis.md § timing).
+  struct StepReading {
+    int n_steps = 0, n_late = 0, n_early = 0, sign = 0;
+  };
+  std::array<StepReading, 2> step_reading{};
   // temp_hysteresis's threshold (°C) d(t) was built at: given (Options or the base model), chosen by the profile
   // (the selected hysteresis's, or the base model's: each grid threshold's likelihood ratio against the model it
   // was chosen on, and the effective number of distinct tests the choice cost, the factor on temp_hysteresis's

@@ -317,6 +317,12 @@ nlohmann::json to_json(const DiagnosisResult& r) {
   j["timing_shift"] = {{"accel", {{"latency_s", num(r.timing_shift_latency_s[0])}, {"ppm", num(r.timing_shift_ppm[0])}}},
                        {"gyro", {{"latency_s", num(r.timing_shift_latency_s[1])}, {"ppm", num(r.timing_shift_ppm[1])}}},
                        {"iterations", r.timing_iterations}};
+  nlohmann::json steps;
+  for (int si = 0; si < 2; ++si) {
+    const auto& st = r.step_reading[static_cast<std::size_t>(si)];
+    steps[si == 0 ? "accel" : "gyro"] = {{"n", st.n_steps}, {"read_late", st.n_late}, {"read_early", st.n_early}, {"sign", st.sign}};
+  }
+  j["reference_steps"] = steps;
   j["hysteresis_threshold"] = {{"C", num(r.hysteresis_threshold_C)},
                                {"source", r.hysteresis_threshold_given ? "given" : r.hysteresis_profile.empty() ? "default" : "profiled"},
                                {"effective_tests", num(r.hysteresis_effective_tests)},

@@ -1554,6 +1554,13 @@ TEST(DiagnosisPipeline, ASubSampleLatencyOnWholeSinePeriodsIsJudgedOnTheBlocks) 
       for (const auto& w : r.warnings) by_steps = by_steps || w.find("reference steps late (a lag below one sample)") != std::string::npos;
       EXPECT_TRUE(by_steps);
       EXPECT_EQ(gyro_timing, by_steps);
+      // The evidence as diagnosis.json reports it: read late at kStepLagDecisiveCount steps or more, none early;
+      // the accelerometer, without a lag, misreads none.
+      EXPECT_GE(r.step_reading[1].n_late, kStepLagDecisiveCount);
+      EXPECT_EQ(r.step_reading[1].n_early, 0);
+      EXPECT_EQ(r.step_reading[1].sign, 1);
+      EXPECT_GT(r.step_reading[0].n_steps, 20);
+      EXPECT_EQ(r.step_reading[0].n_late + r.step_reading[0].n_early, 0);
       continue;
     }
     EXPECT_TRUE(gyro_timing);
