@@ -1343,12 +1343,10 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     if (std::isfinite(o.wander_B[ua]) && !m.bank_tau_s.empty()) {
       const double unit = flicker_B_of_sigma(1.0, m.bank_tau_s);
       if (unit > 0) {
-        // A floor between the dwells' point estimate and the likelihood's level raises the point only.
-        const double s = o.wander_B[ua] / unit;
-        mv.bank_sigma = s;
+        mv.bank_sigma = o.wander_B[ua] / unit;
         mv.flicker_B = o.wander_B[ua];
-        if (!(m.bank_sigma > 0 && s < m.bank_sigma_lik)) {
-          mv.bank_sigma_lik = s;
+        if (!o.wander_B_floor[ua]) {
+          mv.bank_sigma_lik = mv.bank_sigma;
           mv.flicker_B_upper = o.wander_B[ua];
         }
         R.wander[ua].adopted = true;
@@ -3022,6 +3020,14 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     const auto ua = static_cast<std::size_t>(a);
     std::vector<double> ct, cd, cu, cdiag;
     std::vector<int> cseg;
+    // Each block's own variance in a cell: its held-out one, with the verdict's marginal (its random walk from
+    // the log's start, as across blocks) in place of the selection's. Once per block, whatever the cells.
+    std::vector<double> own(static_cast<std::size_t>(B));
+    for (int b = 0; b < B; ++b) {
+      const double t = blocks[static_cast<std::size_t>(b)].t, dur = blk_dur[static_cast<std::size_t>(b)];
+      own[static_cast<std::size_t>(b)] =
+          pvb[ua][static_cast<std::size_t>(b)] - ax[ua].vr[b] + block_covariance(verdict_stoch[ua], t, dur, t, dur, true, t_log, rw0_v[ua]);
+    }
     for (const auto& d : defs) {
       Cell c;
       c.condition = d.cond;
@@ -3038,11 +3044,9 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         sr2 += r * r / pv;
         ++c.n_blocks;
         // The mean's standard error under the verdict's noise: the blocks of a cell share the slow bias
-        // (noise_model.h weighted_sum_variance); each block's own variance is its held-out one, the verdict's
-        // marginal (its random walk from the log's start, as across blocks) in place of the selection's.
-        const double dur = blk_dur[static_cast<std::size_t>(b)];
-        ct.push_back(blk.t), cd.push_back(dur), cu.push_back(1.0 / pv), cseg.push_back(blk.unit);
-        cdiag.push_back(pv - ax[ua].vr[b] + block_covariance(verdict_stoch[ua], blk.t, dur, blk.t, dur, true, t_log, rw0_v[ua]));
+        // (noise_model.h weighted_sum_variance).
+        ct.push_back(blk.t), cd.push_back(blk_dur[static_cast<std::size_t>(b)]), cu.push_back(1.0 / pv), cseg.push_back(blk.unit);
+        cdiag.push_back(own[static_cast<std::size_t>(b)]);
       }
       if (c.n_blocks == 0) continue;
       c.mean = swr / sw;
@@ -3413,6 +3417,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       const auto& w = R.wander[ua];
       if (w.adopted || w.kind.empty() || w.beyond_limit || !(w.measured.ratio > 1.2) || !(w.measured.evidence() > 3.84)) continue;
       (w.kind == "flicker" ? ow.wander_B : ow.wander_K)[ua] = w.value;
+      ow.wander_B_floor[ua] = w.measured.below_likelihood;
       // A walk whose joint maximum lowered the flicker the dwells show carries that flicker with it.
       if (w.kind == "random_walk" && w.measured.flicker_lowered) ow.wander_K_B[ua] = w.measured.B;
       char buf[360];
@@ -3429,6 +3434,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
         of.wander_B = ow.wander_B;
         of.wander_K = ow.wander_K;
         of.wander_K_B = ow.wander_K_B;
+        of.wander_B_floor = ow.wander_B_floor;
         const TimeShift none[2];
         first = diagnose_core(src, base, of, none);
       }

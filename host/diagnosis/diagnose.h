@@ -150,6 +150,9 @@ struct Options {
   // The flicker B that goes with an adopted random walk where the whole log's joint maximum lies below the dwells'
   // (noise_model.h whole_log_wander: short dwells read the start of a walk as flicker); NaN = the dwells'.
   std::array<double, kNumAxes> wander_K_B = nan_axes();
+  // wander_B is the verdict's floor (WholeLogWander::below_likelihood): it raises the held-out verdict's flicker
+  // only, and the likelihood keeps the dwells' level (as with_wander does).
+  std::array<bool, kNumAxes> wander_B_floor{};
   bool whole_log_wander = true;     // estimate it and adopt it (off: the static dwells' level only)
   double wander_max_factor = 4.0;   // a whole-log wander above this × the dwells' is not wander: a deterministic
                                     // residual (out-of-catalog) that must stay visible as such
