@@ -71,8 +71,11 @@ HostTotals g_totals;
 // the load: every sample the node counted as sent arrives complete, once, and the node's sample FIFO
 // never overflowed. Otherwise a benchmark figure. Throughput (samples/s delivered) is always a figure:
 // an emulated node under load falls behind and catches up from its FIFO (firmware/can_node/node.h);
-// what is still in the FIFO at stop is never sent, which is not a loss. A run "keeps up" when the node
-// sent at least 95 % of rate x duration: then the rate is sustained, not just buffered.
+// what is still in the FIFO at stop is never sent (printed as backlog_at_stop). A run "keeps up" when
+// the node sent at least 95 % of rate x duration: then the rate is sustained, not just buffered. How
+// fast the emulated node samples is the host machine's speed, not the protocol's: on a slow CI host it
+// produced 762 samples/s at 1 kHz (stop 40), so the VM's node has a FIFO deeper than any must-hold run
+// (run-vm-test.sh) and what must hold is that nothing it sampled is dropped, on the node or the bus.
 struct RunResult {
   bool loss_free = false;
   bool kept_up = false;
@@ -99,14 +102,19 @@ RunResult stream_run(can::Client& c, std::uint16_t rate, double seconds, bool mu
   res.loss_free = k.lost == 0 && k.incomplete == 0 && k.frames_lost == 0 && k.duplicated == 0 && overflow == 0 &&
                   tx_dropped == 0 && k.received == sent && k.received > 0;
   res.kept_up = static_cast<double>(sent) >= 0.95 * rate * seconds;
-  char buf[640];
+  // Samples due in the run that the node had neither sent nor dropped when it stopped: what a starved
+  // emulated node still held in its FIFO (approximate by the command latency, a few samples).
+  const double due = static_cast<double>(rate) * seconds;
+  const double backlog = due - static_cast<double>(sent + overflow);
+  const std::uint64_t backlog_at_stop = backlog > 0.0 ? static_cast<std::uint64_t>(backlog + 0.5) : 0u;
+  char buf[700];
   std::snprintf(buf, sizeof buf,
                 "mode=%s rate_hz=%u seconds=%.1f node_sent=%" PRIu64 " samples=%" PRIu64 " frames=%" PRIu64 " lost=%" PRIu64
                 " incomplete=%" PRIu64 " duplicated=%" PRIu64 " reordered=%" PRIu64 " frames_lost=%" PRIu64
                 " fifo_overflow=%" PRIu64 " node_tx_dropped=%" PRIu64
-                " throughput_samples_s=%.1f frame_loss=%.6f kept_up=%d",
+                " throughput_samples_s=%.1f frame_loss=%.6f kept_up=%d backlog_at_stop=%" PRIu64,
                 fd ? "fd" : "classic", rate, seconds, sent, k.received, k.frames, k.lost, k.incomplete, k.duplicated, k.reordered,
-                k.frames_lost, overflow, tx_dropped, static_cast<double>(k.received) / el, loss, res.kept_up ? 1 : 0);
+                k.frames_lost, overflow, tx_dropped, static_cast<double>(k.received) / el, loss, res.kept_up ? 1 : 0, backlog_at_stop);
   std::printf("BENCH stream %s\n", buf);
   if (must_hold) report(((fd ? "stream_fd" : "stream") + std::to_string(rate)).c_str(), res.loss_free, buf);
   // Whatever the rate: samples the FIFO dropped are samples the host counts lost (none else may vanish
