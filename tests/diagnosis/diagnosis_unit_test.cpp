@@ -952,6 +952,39 @@ TEST(DiagnosisPipeline, CoarseOutputStepIsNoiseNotAnEffect) {
   EXPECT_TRUE(said) << "the verdict names the output step";
 }
 
+TEST(DiagnosisPipeline, CoarseOutputStepKeepsAnEffectFarBeyondItsStaircase) {
+  // The output-step check withdraws an effect whose change of the fit on a coarsely rounded axis is within twice
+  // the rounding staircase's σ (~2e-4 at 0.4 step of noise). A real k2 on that axis (6e-4 per m/s², within the
+  // plausible range) changes the fit by tens of staircase σ across the tilts: it must stay selected, nothing else.
+  // (At 0.15 step of noise, σ 3.5e-3, a k2 of 4e-4 changes the fit by 1.3 σ and is withdrawn, though 24 distinct
+  // tilts would make it significant against a staircase drawn once per input: the check does not count distinct
+  // inputs; docs/diagnosis.md, Limits.)
+  const double step = 0.02, sigma = 0.4 * step, k2 = 6e-4;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n01;
+  const std::vector<Sample> log = static_pose_log(two_axis_tilts(), 2, 8.0, [&](int, const Pose& f, double* y) {
+    y[0] = step * std::round((f[0] + k2 * f[0] * f[0] + sigma * n01(rng)) / step);
+    y[1] = f[1] + 2e-3 * n01(rng);
+    y[2] = f[2] + 2e-3 * n01(rng);
+    for (int j = 0; j < 3; ++j) y[3 + j] = 5e-4 * n01(rng);
+  });
+  VectorSource src(log);
+  const DiagnosisResult r = diagnose(src, basic_model(), Options{});
+  ASSERT_TRUE(r.quant[0].coarse()) << "the axis must be one the output-step check acts on";
+  bool nonlin = false;
+  for (const auto& st : r.selected) {
+    if (st.sensor == "accel" && st.effect == "scale_nonlinearity") nonlin = true;
+    else ADD_FAILURE() << "selected " << st.sensor << "." << st.effect;
+  }
+  EXPECT_TRUE(nonlin) << "the real k2 of accel.x";
+  for (const auto& w : r.withdrawn_by_check) ADD_FAILURE() << "withdrawn " << w.first << ": " << w.second;
+  if (::testing::Test::HasFailure()) {
+    for (const auto& w : r.warnings) std::printf("warning: %s\n", w.c_str());
+    std::printf("%s\n", summary_text(r).c_str());
+  }
+  for (const auto& u : r.unexplained) ADD_FAILURE() << "unexplained " << u.axis;
+}
+
 TEST(DiagnosisPipeline, FindsInjectedGSensitivityAndReportsUnexcitable) {
   using namespace diagtest;
   // Short rich campaign at one plateau: temperature effects cannot be excited.
