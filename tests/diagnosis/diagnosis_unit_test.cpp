@@ -978,11 +978,11 @@ TEST(DiagnosisPipeline, CoarseOutputStepKeepsAnEffectFarBeyondItsStaircase) {
   }
   EXPECT_TRUE(nonlin) << "the real k2 of accel.x";
   for (const auto& w : r.withdrawn_by_check) ADD_FAILURE() << "withdrawn " << w.first << ": " << w.second;
+  for (const auto& u : r.unexplained) ADD_FAILURE() << "unexplained " << u.axis;
   if (::testing::Test::HasFailure()) {
     for (const auto& w : r.warnings) std::printf("warning: %s\n", w.c_str());
     std::printf("%s\n", summary_text(r).c_str());
   }
-  for (const auto& u : r.unexplained) ADD_FAILURE() << "unexplained " << u.axis;
 }
 
 TEST(DiagnosisPipeline, FindsInjectedGSensitivityAndReportsUnexcitable) {
