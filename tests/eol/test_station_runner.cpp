@@ -397,7 +397,12 @@ TEST(StationRunner, TrackerSteersOnTheHonestSigma) {
   Station s2(2);
   const StationRunResult r2 = s2.run(options(dir2, dir2.station(2, nlohmann::json::object(), 4.0)));
   EXPECT_TRUE(r2.early_stopped);
-  EXPECT_EQ(r2.passed, 2);
+  // Seen once in host-sanitize under CI (stop 41: passed 1), not reproduced in 10 runs, idle or loaded: the
+  // failing unit's reasons are what the next look needs.
+  std::string why;
+  for (const auto& u : r2.units)
+    for (const auto& x : u.reasons) why += u.slot + ": " + x + "; ";
+  EXPECT_EQ(r2.passed, 2) << "steps " << r2.steps_collected << "/" << r2.steps_total << "; " << why;
 }
 
 // A crash around the second rotation of a CW/CCW pair ("z CCW", commanded while the table still turned
