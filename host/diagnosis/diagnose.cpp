@@ -1054,6 +1054,13 @@ using estimator::HeldOut;
 // Columns whose information is (nearly) a combination of earlier ones are dropped, never solved.
 Fit fit_axis(const AxisData& ad, const std::vector<int>& sel, int skip) { return estimator::fit_without(ad.ne, sel, skip); }
 
+// The block means fit f predicts on axis ad, before whitening (Xr θ over the kept columns). O(B·P).
+Eigen::VectorXd fitted_means(const AxisData& ad, const Fit& f) {
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(ad.Xr.rows());
+  for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) y += ad.Xr.col(f.kept[static_cast<std::size_t>(i)]) * f.theta[i];
+  return y;
+}
+
 // The fit uses `fit_ad` (blocks); the withheld data are scored on `ad` (blocks, or whole segments for the gap).
 HeldOut heldout_axis(const AxisData& fit_ad, const AxisData& ad, const std::vector<int>& sel, int folds) {
   if (folds != ad.ne.folds()) throw DiagnosisError("internal: held-out statistics built for another fold count");
@@ -2604,12 +2611,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         // its own columns' signal, part of which only trades with the rest of the model (k3 f³ against the scale
         // on the ±1 g faces). The rounding has to mimic the change, not the trade (varied11 stoch-tactical-11
         // accel.y: a k2, k3 of signal rms 2.2e-4 changed the fit by 1.0e-4, staircase σ 9.1e-5; other axes LR 2.0).
-        Eigen::VectorXd dfit = Eigen::VectorXd::Zero(B);
-        for (int i = 0; i < static_cast<int>(f_with.kept.size()); ++i)
-          dfit += ad.Xr.col(f_with.kept[static_cast<std::size_t>(i)]) * f_with.theta[i];
-        for (int i = 0; i < static_cast<int>(f_without.kept.size()); ++i)
-          dfit -= ad.Xr.col(f_without.kept[static_cast<std::size_t>(i)]) * f_without.theta[i];
-        const double rms = B > 0 ? std::sqrt(dfit.squaredNorm() / B) : 0.0;
+        const double rms = B > 0 ? std::sqrt((fitted_means(ad, f_with) - fitted_means(ad, f_without)).squaredNorm() / B) : 0.0;
         if (within_rounding(ua, rms)) {
           a_in = a;
           rms_in = rms;
@@ -2883,9 +2885,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       // sigma, the residual as a whole cannot be told from the rounding, and the axis is not named.
       if (structured && R.quant[ua].coarse()) {
         const Fit f = fit_axis(ax[ua], cols_for(ax[ua], cur), -1);
-        Eigen::VectorXd r = ax[ua].zr;
-        for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) r -= ax[ua].Xr.col(f.kept[static_cast<std::size_t>(i)]) * f.theta[i];
-        w.residual_rms = B > 0 ? std::sqrt(r.squaredNorm() / B) : 0.0;
+        w.residual_rms = B > 0 ? std::sqrt((ax[ua].zr - fitted_means(ax[ua], f)).squaredNorm() / B) : 0.0;
         w.within_rounding = within_rounding(ua, w.residual_rms);
       }
       if (structured && !w.within_rounding && pick->gain >= o.wander_unexplained_gain && !over(R.gap_after, a)) {
