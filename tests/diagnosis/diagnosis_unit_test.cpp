@@ -1031,6 +1031,32 @@ TEST(DiagnosisPipeline, FindsInjectedGSensitivityAndReportsUnexcitable) {
     }
 }
 
+// A temperature polynomial enters as `"gyro.misalign_temp": {}` would in a model file: its six slopes (order 1),
+// not the 18 columns of all three powers, so what is selected and reported is what its user then adds. The
+// cubic's fold fits extrapolate: it lost real slopes their held-out gain and spoiled later candidates' (stop 42).
+TEST(DiagnosisPipeline, ATemperaturePolynomialEntersAtTheModelFilesDefaultOrder) {
+  using namespace diagtest;
+  const double xy = 3e-5, zx = -2e-5;  // rad/°C
+  auto data = simulate(rich_campaign({10.0, 25.0, 40.0}, 10.0), base_sensor(true, {{"gyro.misalign_temp", {{"xy.t1", xy}, {"zx.t1", zx}}}}), 11);
+  VectorSource src(data);
+  Options o;
+  const DiagnosisResult r = diagnose(src, thermal_base(), o);
+  bool selected = false;
+  for (const auto& st : r.selected) selected |= st.sensor == "gyro" && st.effect == "misalign_temp";
+  ASSERT_TRUE(selected) << summary_text(r);
+  int slopes = 0;
+  for (const auto& p : r.final_params) {
+    if (p.name.rfind("gyro.misalign_temp.", 0) != 0) continue;
+    EXPECT_EQ(p.name.substr(p.name.size() - 3), ".t1") << p.name;
+    ++slopes;
+    const double truth = p.name == "gyro.misalign_temp.xy.t1" ? xy : p.name == "gyro.misalign_temp.zx.t1" ? zx : 0.0;
+    EXPECT_LT(std::fabs(p.value - truth), 3.0 * p.sigma) << p.name << " = " << p.value << " +/- " << p.sigma << ", truth " << truth;
+  }
+  EXPECT_EQ(slopes, 6) << summary_text(r);
+  for (const auto& c : r.ranking)
+    if (c.sensor == "gyro" && c.effect == "misalign_temp") EXPECT_LE(c.dof, 6);
+}
+
 TEST(DiagnosisPipeline, RejectsBadInput) {
   VectorSource empty({});
   EXPECT_THROW(diagnose(empty, basic_model(), Options{}), DiagnosisError);
