@@ -57,6 +57,10 @@ std::vector<ParamId> sensor_params(Sensor s) {
   return ids;
 }
 
+std::string effect_key(Sensor s, Effect e) {
+  return std::string(model::sensor_name(s)) + "." + model::effect_info(e).name;
+}
+
 // The parameters a candidate effect enters the model with: those of `"sensor.effect": {}` in a model file
 // (ModelSpec::parameters), so that what the diagnosis tests and selects is what its user then adds. A
 // temperature polynomial (bias_temp, scale_temp, misalign_temp) enters at the file's default order, 1. Scored
@@ -64,15 +68,23 @@ std::vector<ParamId> sensor_params(Sensor s) {
 // fold fits of the cubic extrapolate, so a real one often lost its held-out gain, and once selected it spoiled
 // the held-out score of later candidates (varied12 random-8: a true accel k2 at held-out gain −745 beside the
 // cubic, +21.7 beside the slopes; stop 42).
-std::vector<ParamId> candidate_params(Sensor s, Effect e) {
-  std::vector<ParamId> ids = model::effect_params(s, e);
-  if (e == Effect::kBiasTemp || e == Effect::kScaleTemp || e == Effect::kMisalignTemp)
-    ids.erase(std::remove_if(ids.begin(), ids.end(), [](ParamId id) { return model::param_info(id).power > 1; }), ids.end());
-  return ids;
-}
-
-std::string effect_key(Sensor s, Effect e) {
-  return std::string(model::sensor_name(s)) + "." + model::effect_info(e).name;
+// The model file loader says what `{}` means (one source of truth): the table is built once, thread-safely.
+const std::vector<ParamId>& candidate_params(Sensor s, Effect e) {
+  static const std::map<std::pair<int, int>, std::vector<ParamId>> table = [] {
+    std::map<std::pair<int, int>, std::vector<ParamId>> t;
+    for (const auto& ei : model::effects()) {
+      if (ei.kind != model::EffectKind::kDeterministic) continue;
+      for (Sensor sn : {Sensor::kAccel, Sensor::kGyro}) {
+        if (!(ei.sensors & (sn == Sensor::kAccel ? model::kMaskAccel : model::kMaskGyro))) continue;
+        const nlohmann::json j = {{"effects", {{effect_key(sn, ei.effect), nlohmann::json::object()}}}};
+        t[{static_cast<int>(sn), static_cast<int>(ei.effect)}] = model::model_spec_from_json(j).parameters();
+      }
+    }
+    return t;
+  }();
+  static const std::vector<ParamId> none;
+  const auto it = table.find({static_cast<int>(s), static_cast<int>(e)});
+  return it == table.end() ? none : it->second;
 }
 
 // The nominal input u of output axis a (0…5): specific force for accel.x…z, rate for gyro.x…z.
