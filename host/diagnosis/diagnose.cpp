@@ -61,14 +61,14 @@ std::string effect_key(Sensor s, Effect e) {
   return std::string(model::sensor_name(s)) + "." + model::effect_info(e).name;
 }
 
-// The parameters a candidate effect enters the model with: those of `"sensor.effect": {}` in a model file
-// (ModelSpec::parameters), so that what the diagnosis tests and selects is what its user then adds. A
+// The parameters a candidate effect enters the model with: those the model file loader gives
+// `"sensor.effect": {}` (model_spec_from_json, then ModelSpec::parameters; one table, built once and
+// thread-safely), so that what the diagnosis tests and selects is what its user then adds. A
 // temperature polynomial (bias_temp, scale_temp, misalign_temp) enters at the file's default order, 1. Scored
 // with all three powers, misalign_temp took 18 columns per sensor where its six slopes were the signal: the
 // fold fits of the cubic extrapolate, so a real one often lost its held-out gain, and once selected it spoiled
 // the held-out score of later candidates (varied12 random-8: a true accel k2 at held-out gain −745 beside the
 // cubic, +21.7 beside the slopes; stop 42).
-// The model file loader says what `{}` means (one source of truth): the table is built once, thread-safely.
 const std::vector<ParamId>& candidate_params(Sensor s, Effect e) {
   static const std::map<std::pair<int, int>, std::vector<ParamId>> table = [] {
     std::map<std::pair<int, int>, std::vector<ParamId>> t;
@@ -1921,7 +1921,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     CandidateScore cs;
     cs.effect = model::effect_info(e).name;
     cs.sensor = model::sensor_name(s);
-    const std::vector<ParamId> eids = candidate_params(s, e);
+    const std::vector<ParamId>& eids = candidate_params(s, e);
     double lr = 0, excess_cur = 0, ho_gain = 0;
     int dof = 0, n_obs = 0;
     std::vector<int> mag_axis;  // the axis of each entry of mags
@@ -2944,7 +2944,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       if (!sensor_has_selection) continue;
       const CandidateScore c = score_one(cur, s, e);
       if (!c.excitable || !(c.p_value < 0.5)) continue;
-      const std::vector<ParamId> eids = candidate_params(s, e);
+      const std::vector<ParamId>& eids = candidate_params(s, e);
       const int a0 = s == Sensor::kAccel ? 0 : 3;
       // Every component of a selected effect is kept; an effect is reported whole when any of its components
       // moves by > 3σ (one dependence, seen most on some axes).
