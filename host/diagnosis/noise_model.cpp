@@ -609,6 +609,71 @@ std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const s
   return out;
 }
 
+PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
+                           const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
+                           const std::vector<int>* seg_of) {
+  PeriodicBias out;
+  const int n = static_cast<int>(rows.rows()), c = static_cast<int>(rows.cols()), P = c - 1;
+  if (n <= P + 4 || !(duration_s > 0) || static_cast<int>(t_s.size()) != n) return out;
+  const double f_lo = 1.5 / duration_s, f_hi = 25.0 / duration_s, df = 1.0 / (3.0 * duration_s);
+  std::vector<double> freqs;
+  for (double f = f_lo; f <= f_hi * (1 + 1e-12); f += df) freqs.push_back(f);
+  const int F = static_cast<int>(freqs.size());
+  const double t0 = t_s.front();
+  // The pair of columns of frequency f into columns j, j + 1 of out: a block's mean of the sinusoid, its value at
+  // the mid time times sinc(π f · dur).
+  auto fill = [&](Eigen::MatrixXd& out, int j, double f) {
+    const double w = 2.0 * M_PI * f;
+    for (int i = 0; i < n; ++i) {
+      const double ph = w * (t_s[static_cast<std::size_t>(i)] - t0), x = 0.5 * w * dur_s[static_cast<std::size_t>(i)];
+      const double sinc = x > 1e-9 ? std::sin(x) / x : 1.0;
+      out(i, j) = sinc * std::sin(ph);
+      out(i, j + 1) = sinc * std::cos(ph);
+    }
+  };
+  Eigen::MatrixXd aug(n, c + 2 * F);
+  aug.leftCols(c) = rows;
+  for (int k = 0; k < F; ++k) fill(aug, c + 2 * k, freqs[static_cast<std::size_t>(k)]);
+  const estimator::NormalEquations ne = gls_normal_equations(m, t_s, dur_s, aug, rw_prior_var, seg_of);
+  std::vector<int> cols(static_cast<std::size_t>(P));
+  std::iota(cols.begin(), cols.end(), 0);
+  const double rss0 = estimator::fit_subset(ne, cols).rss;
+  cols.resize(static_cast<std::size_t>(P) + 2);
+  int best = -1;
+  for (int k = 0; k < F; ++k) {
+    cols[static_cast<std::size_t>(P)] = P + 2 * k;
+    cols[static_cast<std::size_t>(P) + 1] = P + 2 * k + 1;
+    const double g = rss0 - estimator::fit_subset(ne, cols).rss;
+    if (g > out.gain) out.gain = g, best = k;
+  }
+  out.n_periods = F;
+  if (best < 0) return out;
+  // The grid's best frequency refined between its neighbours (golden section): a strong sinusoid loses much of
+  // its gain a third of a grid step off its frequency, and the random walk takes up what the misfit leaves.
+  Eigen::MatrixXd two(n, c + 2);
+  two.leftCols(c) = rows;
+  std::vector<int> all(static_cast<std::size_t>(P) + 2);
+  std::iota(all.begin(), all.end(), 0);
+  auto gain_at = [&](double f) {
+    fill(two, c, f);
+    return rss0 - estimator::fit_subset(gls_normal_equations(m, t_s, dur_s, two, rw_prior_var, seg_of), all).rss;
+  };
+  const double phi = 0.5 * (std::sqrt(5.0) - 1.0);
+  double a = freqs[static_cast<std::size_t>(best)] - df, b = freqs[static_cast<std::size_t>(best)] + df;
+  double x1 = b - phi * (b - a), x2 = a + phi * (b - a), g1 = gain_at(x1), g2 = gain_at(x2);
+  for (int it = 0; it < 16; ++it) {
+    if (g1 > g2) {
+      b = x2, x2 = x1, g2 = g1, x1 = b - phi * (b - a), g1 = gain_at(x1);
+    } else {
+      a = x1, x1 = x2, g1 = g2, x2 = a + phi * (b - a), g2 = gain_at(x2);
+    }
+  }
+  const double f_best = g1 > g2 ? x1 : x2, g_best = std::max(g1, g2);
+  out.period_s = 1.0 / freqs[static_cast<std::size_t>(best)];
+  if (g_best > out.gain) out.gain = g_best, out.period_s = 1.0 / f_best;
+  return out;
+}
+
 double weighted_sum_variance(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                              const std::vector<int>& seg, const std::vector<double>& u, const std::vector<double>& diag,
                              double t_start, double rw_prior_var) {

@@ -154,6 +154,24 @@ std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const s
                                                double rw_prior_var, double duration_s, double ratio_max,
                                                const std::vector<int>* seg_of = nullptr);
 
+// A slow periodic bias against the raised wander that would take it (diagnose.cpp, the final model's wander).
+// Two or three cycles of a sinusoid in a whole log are what the random-walk line's whitening differences away:
+// its innovations come out white and its likelihood gain is large (`varied12` ooc-periodic-0, an accel.y sine of
+// 870 s in 1691 s: random walk Δ(−2 log L) 339, line p 0.095 under it). The question the checks of WholeLogWander
+// cannot answer is asked here as a likelihood: the best sinusoid b·sin(2πt/P) + c·cos(2πt/P), fitted by GLS beside
+// the columns under m (the model's own level, no raise), over periods from duration_s/25 to duration_s/1.5 (1.5
+// cycles at least: a slower one is one swing, which a wander makes as well) on a grid 3× finer than 1/duration_s,
+// the best refined between its neighbours. gain: its Δχ² (= Δ(−2 log L), the noise held), comparable with
+// WholeLogWander::gain; n_periods: how many grid periods were searched (the look-elsewhere count).
+// O(n · (P + 2F)² + F · P³ + 18 · n · P²), F = n_periods ≈ 70.
+struct PeriodicBias {
+  double gain = 0, period_s = 0;
+  int n_periods = 0;
+};
+PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
+                           const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
+                           const std::vector<int>* seg_of = nullptr);
+
 // Rounding quantiser of an output (docs/diagnosis.md § 2, "output step"). A quantiser whose step Δ is not
 // small against the noise ahead of it (σ below about 0.6 Δ) leaves a bias in the mean of a constant input x that
 // depends on where x falls between two steps: Σ_k (−1)^k (Δ/πk) e^{−2π²k²σ²/Δ²} sin(2πkx/Δ). Over the poses of a

@@ -125,6 +125,10 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       else if (w.beyond_limit && w.beyond_reason == "periodic")
         line += "; not a stationary bias wander either: what is left under one carries a line of period " +
                 fmt("%.0f", w.measured.line_period_s) + " s (false-alarm p " + fmt("%.1g", w.measured.line_p) + ")";
+      else if (w.beyond_limit && w.beyond_reason == "sinusoid")
+        line += "; not a stationary bias wander either: a sinusoid of period " + fmt("%.0f", w.sinusoid.period_s) +
+                " s explains the whole log's residual better (-2 log L gain " + fmt("%.0f", w.sinusoid.gain) + " against " +
+                fmt("%.0f", w.measured.gain) + " for a " + (w.kind == "flicker" ? "flicker" : "random walk") + ")";
     } else {
       std::vector<std::string> by, details;  // details: what a selected effect's nonlinear parameters read
       for (const auto& st : r.selected)
@@ -200,6 +204,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     if (r.wander[u].within_rounding)
       line += std::string("; the whole log's residual carries ") +
               (r.wander[u].beyond_reason == "periodic" ? "a line of period " + fmt("%.0f", r.wander[u].measured.line_period_s) + " s"
+               : r.wander[u].beyond_reason == "sinusoid" ? "a sinusoid of period " + fmt("%.0f", r.wander[u].sinusoid.period_s) + " s"
                                                        : std::string("a bias step")) +
               ", within the rounding (residual rms " + fmt("%.2g", r.wander[u].residual_rms) + ", under twice its sigma)";
     out.push_back(line);
@@ -351,6 +356,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"ratio", num(r.wander[u].measured.ratio)}, {"limit_ratio", num(r.wander[u].measured.limit_ratio)}, {"gain", num(r.wander[u].measured.gain)}, {"below_likelihood", r.wander[u].measured.below_likelihood}, {"gain_over_point", num(r.wander[u].measured.gain_seen)}, {"max_abs_z", num(r.wander[u].measured.max_abs_z)}, {"jump_persist_z", num(r.wander[u].measured.jump_persist_z)}, {"whiteness_p", num(r.wander[u].measured.whiteness_p)},
                                                  {"autocorr_sq", num(r.wander[u].measured.autocorr_sq)}, {"line_p", num(r.wander[u].measured.line_p)},
                                                  {"line_period_s", num(r.wander[u].measured.line_period_s)},
+                                                 {"sinusoid_gain", num(r.wander[u].sinusoid.gain)}, {"sinusoid_period_s", num(r.wander[u].sinusoid.period_s)},
                                                  {"walk_flicker_B", num(r.wander[u].walk_flicker_B)}, {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
                                             {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))},

@@ -313,6 +313,36 @@ TEST(DiagnosisNoiseModel, WholeLogWanderFindsARandomWalkAndRejectsAStepAndASine)
   EXPECT_GE(raised, 2) << "the likelihood must want a raise for both (else the checks are not exercised)";
 }
 
+// Two cycles of a slow sinusoid against a random walk (periodic_bias, Options::wander_sinusoid_margin). The walk's
+// whitening differences a slow sinusoid down to what its innovations hardly show, and the walk's likelihood gain
+// is large; the sinusoid fitted beside the columns under the model's own level gains far more. A true random walk
+// is the other way round: one sinusoid takes only a part of its spread over every period.
+TEST(DiagnosisNoiseModel, TwoCyclesOfASinusoidAreToldFromARandomWalk) {
+  const int n = 360;
+  const double dur_s = 5.0, N = 1e-3, K_true = 2e-4, period_s = 800.0;  // 1800 s: 2.25 cycles
+  std::vector<double> t, d;
+  const StochasticModel m = faint_flicker_model(N, n, dur_s, t, d);
+  auto gains = [&](int kind, std::uint64_t seed, double& period_found) {
+    const Eigen::MatrixXd rows = walk_rows(n, dur_s, N, kind == 0 ? K_true : 0.0, seed, [&](int i, double rw) {
+      return kind == 0 ? rw : 4e-3 * std::sin(2.0 * M_PI * t[static_cast<std::size_t>(i)] / period_s + 0.3 * seed);
+    });
+    const auto l = whole_log_wander(m, t, d, rows, 0.0, n * dur_s, 1e6);
+    const double raise = std::max(l[0].gain, l[1].gain);
+    const PeriodicBias pb = periodic_bias(m, t, d, rows, 0.0, n * dur_s);
+    period_found = pb.period_s;
+    EXPECT_EQ(pb.n_periods, 71);  // 1.5 to 25 cycles, 3 per cycle of the log
+    EXPECT_GT(raise, 25.0) << seed << ": the likelihood wants a raise for both (else the rule is not exercised)";
+    return pb.gain - raise;
+  };
+  const double margin = Options{}.wander_sinusoid_margin;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    double p_walk = 0, p_sine = 0;
+    EXPECT_LT(gains(0, seed, p_walk), 0.0) << seed << ": a random walk is likelier as a walk than as a sinusoid";
+    EXPECT_GT(gains(1, seed, p_sine), margin) << seed;
+    EXPECT_NEAR(p_sine, period_s, 0.05 * period_s) << seed;
+  }
+}
+
 // The cells' standard error: the O(n) sum against the double sum of block_covariance, on a model with every
 // correlated term (GM, a flicker bank, a random walk with its prior, a per-segment bias) over irregular blocks in
 // two segments. The per-segment bias is block_covariance's within a segment and absent across.
