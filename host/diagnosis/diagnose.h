@@ -190,7 +190,7 @@ struct Options {
   // (noise_model.h, periodic_bias; Wander::sinusoid). Two cycles of a slow periodic bias pass the line check: the
   // random walk's whitening differences them away (`varied7` ooc-periodic gyro.y, line p 0.004 under the walk;
   // `varied12` ooc-periodic-0 accel.y, 0.095). Measured (stop 43): the three true periodic biases it was asked of
-  // beat the raise by 98–191; on the 575 other axes asked (244 blind cases of five suites) the sinusoid beats the
+  // beat the raise by 98–191; on the 590 other axes asked (244 blind cases of five suites) the sinusoid beats the
   // raise by at most 23 (docs/diagnosis.md § 5, "Whole-log wander").
   double wander_sinusoid_margin = 40.0;
   // Optional Allan curve of a simulation of the same campaign (from --sim), per axis.
