@@ -620,15 +620,15 @@ PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& 
   for (double f = f_lo; f <= f_hi * (1 + 1e-12); f += df) freqs.push_back(f);
   const int F = static_cast<int>(freqs.size());
   const double t0 = t_s.front();
-  // The pair of columns of frequency f into columns j, j + 1 of out: a block's mean of the sinusoid, its value at
+  // The pair of columns of frequency f into columns j, j + 1 of dst: a block's mean of the sinusoid, its value at
   // the mid time times sinc(π f · dur).
-  auto fill = [&](Eigen::MatrixXd& out, int j, double f) {
+  auto fill = [&](Eigen::MatrixXd& dst, int j, double f) {
     const double w = 2.0 * M_PI * f;
     for (int i = 0; i < n; ++i) {
       const double ph = w * (t_s[static_cast<std::size_t>(i)] - t0), x = 0.5 * w * dur_s[static_cast<std::size_t>(i)];
       const double sinc = x > 1e-9 ? std::sin(x) / x : 1.0;
-      out(i, j) = sinc * std::sin(ph);
-      out(i, j + 1) = sinc * std::cos(ph);
+      dst(i, j) = sinc * std::sin(ph);
+      dst(i, j + 1) = sinc * std::cos(ph);
     }
   };
   Eigen::MatrixXd aug(n, c + 2 * F);
@@ -659,7 +659,9 @@ PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& 
     return rss0 - estimator::fit_subset(gls_normal_equations(m, t_s, dur_s, two, rw_prior_var, seg_of), all).rss;
   };
   const double phi = 0.5 * (std::sqrt(5.0) - 1.0);
-  double a = freqs[static_cast<std::size_t>(best)] - df, b = freqs[static_cast<std::size_t>(best)] + df;
+  // Within the band searched: at its ends the neighbour outside is not a period the check asks about.
+  double a = std::max(freqs[static_cast<std::size_t>(best)] - df, f_lo);
+  double b = std::min(freqs[static_cast<std::size_t>(best)] + df, freqs.back());
   double x1 = b - phi * (b - a), x2 = a + phi * (b - a), g1 = gain_at(x1), g2 = gain_at(x2);
   for (int it = 0; it < 16; ++it) {
     if (g1 > g2) {
