@@ -1,6 +1,8 @@
 #include "host/model/measure.h"
 
+#include <array>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace imuforge::model {
@@ -113,13 +115,25 @@ void regressors(Sensor s, const std::vector<ParamId>& ids, const MeasureInput& i
   bool need_size = false;
   for (ParamId id : ids) need_size = need_size || all[static_cast<std::size_t>(id)].effect == Effect::kSizeEffect;
   Eigen::Matrix3d A = need_size ? size_matrix(in.w, in.wdot) : Eigen::Matrix3d::Zero();
+  // τ^p of the temperature polynomials, once per power and call (power is the nonlinearity's order elsewhere):
+  // pow() per column and sample was a quarter of a 1 h diagnosis. τ¹ is τ exactly, and the higher powers still
+  // come from pow(), so every column is what it was, bit for bit.
+  std::array<double, 4> tau_pows{1.0, tau, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  auto tau_pow = [&](int pw) {
+    if (pw <= 0) return 1.0;
+    if (pw > 3) return std::pow(tau, pw);
+    double& v = tau_pows[static_cast<std::size_t>(pw)];
+    if (std::isnan(v)) v = std::pow(tau, pw);
+    return v;
+  };
   for (std::size_t i = 0; i < ids.size(); ++i) {
     auto col = J.col(static_cast<Eigen::Index>(i));
     col.setZero();
     const ParamInfo& p = all[static_cast<std::size_t>(ids[i])];
     if (p.sensor != s || !p.deterministic) continue;
     const int j = p.j, k = p.k, l = p.l;
-    const double tpow = p.power > 0 ? std::pow(tau, p.power) : 1.0;
+    const bool thermal = p.effect == Effect::kBiasTemp || p.effect == Effect::kScaleTemp || p.effect == Effect::kMisalignTemp;
+    const double tpow = thermal ? tau_pow(p.power) : 1.0;
     switch (p.effect) {
       case Effect::kBias: col[j] = 1.0; break;
       case Effect::kScale: col[j] = u[j]; break;
