@@ -2719,7 +2719,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         if (!o.whole_log_wander) continue;
         const std::array<WholeLogWander, 3> lines = wander_lines(a, without);
         const WholeLogWander* pick = wander_pick(lines);
-        if (!pick || *wander_reason(lines, *pick) || !(pick->ratio > 1.2) || !(pick->gain > 3.84)) continue;
+        if (!pick || *wander_reason(lines, *pick) || !pick->material()) continue;
         AxisNoise& n = an[static_cast<std::size_t>(k)];
         n.sm = with_wander(R.stoch[ua], pick, R.duration_s, R.rw_prior_var[ua], n.rw0);
         // An adopted wander at least as large (Allan variance at a quarter of the log) stands as it is: the
@@ -2846,15 +2846,19 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   }
   R.gap_after = gap_verdict(cur);
   R.final_ids = cur;
+  // What axis a's held-out residual under the final model follows (period_s > 0: a sinusoid in time as well).
+  auto signature_of = [&](int a, double period_s) {
+    std::vector<double> r, pv;
+    heldout_blocks(ax[static_cast<std::size_t>(a)], cols_for(ax[static_cast<std::size_t>(a)], cur), folds, blocks, r, pv);
+    return residual_signature(blocks, r, pv, period_s);
+  };
   for (int a = 0; a < kNumAxes; ++a) {
     if (!over(R.gap_after, a)) continue;
     Unexplained u;
     u.axis = axis_name(a);
     u.chi2_dof_after = R.gap_after.chi2_dof[static_cast<std::size_t>(a)];
     u.withdrawn = withdrawn[static_cast<std::size_t>(a / 3)];
-    std::vector<double> r, pv;
-    heldout_blocks(ax[static_cast<std::size_t>(a)], cols_for(ax[static_cast<std::size_t>(a)], cur), folds, blocks, r, pv);
-    u.signature = residual_signature(blocks, r, pv, 0.0);
+    u.signature = signature_of(a, 0.0);
     R.unexplained.push_back(u);
   }
 
@@ -2907,8 +2911,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       // No raise above the likelihood's level would be carried, but the whole log prefers a floor between the
       // dwells' point estimate and that level (noise_model.h, below_likelihood): the verdict's floor takes it.
       const WholeLogWander& floor = lines[2];
-      if (floor.below_likelihood && !*reason(floor) && floor.ratio > 1.2 && floor.evidence() > 3.84 &&
-          (!pick || *reason(*pick) || !(pick->ratio > 1.2) || !(pick->gain > 3.84)))
+      if (floor.below_likelihood && !*reason(floor) && floor.material() && (!pick || *reason(*pick) || !pick->material()))
         pick = &floor;
       if (!pick) continue;
       auto& w = R.wander[ua];
@@ -2919,7 +2922,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       // A raise that passes its checks and would be carried: is the residual it takes a sinusoid of a few cycles
       // rather than wander (noise_model.h, periodic_bias)? Asked of the raise alone: the verdict's floor is judged
       // from a different level, and a refused raise is not carried anyway.
-      if (w.beyond_reason.empty() && !pick->below_likelihood && pick->ratio > 1.2 && pick->gain > 3.84) {
+      if (w.beyond_reason.empty() && !pick->below_likelihood && pick->material()) {
         const AxisData& ad = ax[ua];
         const Fit f = fit_axis(ad, cols_for(ad, cur), -1);
         double rw0 = 0;
@@ -2950,19 +2953,13 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       // An axis already named on its held-out χ² whose residual is that sinusoid: its signature gets the sinusoid.
       if (w.beyond_reason == "sinusoid" && over(R.gap_after, a))
         for (auto& u : R.unexplained)
-          if (u.axis == axis_name(a)) {
-            std::vector<double> r, pv;
-            heldout_blocks(ax[ua], cols_for(ax[ua], cur), folds, blocks, r, pv);
-            u.signature = residual_signature(blocks, r, pv, w.sinusoid.period_s);
-          }
+          if (u.axis == axis_name(a)) u.signature = signature_of(a, w.sinusoid.period_s);
       if (structured && !w.within_rounding && pick->gain >= o.wander_unexplained_gain && !over(R.gap_after, a)) {
         Unexplained u;
         u.axis = axis_name(a);
         u.chi2_dof_after = R.gap_after.chi2_dof[ua];
         u.basis = "wander";
-        std::vector<double> r, pv;
-        heldout_blocks(ax[ua], cols_for(ax[ua], cur), folds, blocks, r, pv);
-        u.signature = residual_signature(blocks, r, pv, w.beyond_reason == "sinusoid" ? w.sinusoid.period_s : 0.0);
+        u.signature = signature_of(a, w.beyond_reason == "sinusoid" ? w.sinusoid.period_s : 0.0);
         R.unexplained.push_back(u);
       }
     }
@@ -3491,7 +3488,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     for (int a = 0; a < kNumAxes; ++a) {
       const auto ua = static_cast<std::size_t>(a);
       const auto& w = R.wander[ua];
-      if (w.adopted || w.kind.empty() || w.beyond_limit || !(w.measured.ratio > 1.2) || !(w.measured.evidence() > 3.84)) continue;
+      if (w.adopted || w.kind.empty() || w.beyond_limit || !w.measured.material()) continue;
       (w.kind == "flicker" ? ow.wander_B : ow.wander_K)[ua] = w.value;
       ow.wander_B_floor[ua] = w.measured.below_likelihood;
       // A walk whose joint maximum lowered the flicker the dwells show carries that flicker with it.

@@ -117,6 +117,10 @@ struct WholeLogWander {
   // The Δ(−2 log L) a line's adoption is judged on: over the point estimate for the verdict's floor, over the
   // likelihood's level for a raise. O(1).
   double evidence() const { return below_likelihood ? gain_seen : gain; }
+  // What diagnose() carries at all: material (Allan deviation at a quarter of the log > 1.2 × the level it is
+  // against) and significant (evidence > 3.84, p 0.05 on 1 dof). The one rule for adoption, the re-tests and the
+  // checks asked before adoption. O(1).
+  bool material() const { return ratio > 1.2 && evidence() > 3.84; }
   // Largest standardised innovation of the GLS residual under the maximiser: Gaussian wander keeps it near
   // √(2 ln n); one jump (a bias step) that a random walk "explains" on average stands out by tens.
   double max_abs_z = 0;
