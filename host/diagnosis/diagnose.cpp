@@ -1126,9 +1126,10 @@ std::vector<int> cols_for(const AxisData& ad, const std::set<ParamId>& model_ids
 
 // Weighted correlation of the held-out block residuals with simple functions of the logged inputs, best
 // first: what an out-of-catalog effect follows. period_s > 0 adds a sinusoid in time of that period (the
-// whole-log wander's sinusoid check found one).
+// whole-log wander's sinusoid check found one); settle_tau_s > 0 a settling transient e^{−time/τ} (its settling
+// check found one).
 std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks, const std::vector<double>& r,
-                                               const std::vector<double>& pv, double period_s) {
+                                               const std::vector<double>& pv, double period_s, double settle_tau_s) {
   const char* ax = "xyz";
   std::vector<std::pair<std::string, std::function<double(const Block&)>>> feats;
   for (int k = 0; k < 3; ++k) feats.push_back({std::string("f_") + ax[k], [k](const Block& b) { return b.f[k]; }});
@@ -1165,6 +1166,14 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
     char name[80];
     std::snprintf(name, sizeof name, "sin(2 pi time / %.0f s %+.2f)", period_s, phase);
     feats.push_back({name, [w0, phase](const Block& b) { return std::sin(w0 * b.t + phase); }});
+  }
+  if (settle_tau_s > 0) {
+    const double t_first = blocks.empty() ? 0.0 : std::min_element(blocks.begin(), blocks.end(), [](const Block& x, const Block& y) {
+                                                    return x.t < y.t;
+                                                  })->t;
+    char name[80];
+    std::snprintf(name, sizeof name, "exp(-time / %.0f s)", settle_tau_s);
+    feats.push_back({name, [settle_tau_s, t_first](const Block& b) { return std::exp(-(b.t - t_first) / settle_tau_s); }});
   }
   // "segment": the residual's own per-segment mean (a constant per segment that no input explains).
   std::map<int, std::pair<double, double>> seg;
@@ -2846,11 +2855,12 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   }
   R.gap_after = gap_verdict(cur);
   R.final_ids = cur;
-  // What axis a's held-out residual under the final model follows (period_s > 0: a sinusoid in time as well).
-  auto signature_of = [&](int a, double period_s) {
+  // What axis a's held-out residual under the final model follows (period_s > 0: a sinusoid in time as well;
+  // settle_tau_s > 0: a settling transient).
+  auto signature_of = [&](int a, double period_s, double settle_tau_s) {
     std::vector<double> r, pv;
     heldout_blocks(ax[static_cast<std::size_t>(a)], cols_for(ax[static_cast<std::size_t>(a)], cur), folds, blocks, r, pv);
-    return residual_signature(blocks, r, pv, period_s);
+    return residual_signature(blocks, r, pv, period_s, settle_tau_s);
   };
   for (int a = 0; a < kNumAxes; ++a) {
     if (!over(R.gap_after, a)) continue;
@@ -2858,7 +2868,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     u.axis = axis_name(a);
     u.chi2_dof_after = R.gap_after.chi2_dof[static_cast<std::size_t>(a)];
     u.withdrawn = withdrawn[static_cast<std::size_t>(a / 3)];
-    u.signature = signature_of(a, 0.0);
+    u.signature = signature_of(a, 0.0, 0.0);
     R.unexplained.push_back(u);
   }
 
@@ -2927,18 +2937,25 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         const Fit f = fit_axis(ad, cols_for(ad, cur), -1);
         double rw0 = 0;
         const StochasticModel m0 = with_wander(R.stoch[ua], nullptr, R.duration_s, R.rw_prior_var[ua], rw0);
-        w.sinusoid = periodic_bias(m0, blk_t, blk_dur, design_rows(ad, f.kept, 0), rw0, R.duration_s, &blk_seg);
+        const Eigen::MatrixXd rows = design_rows(ad, f.kept, 0);
+        w.sinusoid = periodic_bias(m0, blk_t, blk_dur, rows, rw0, R.duration_s, &blk_seg);
+        w.trend = trend_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, &blk_seg);
         if (std::getenv("IMUFORGE_DIAG_TRACE"))
-          std::fprintf(stderr, "periodic %s: pick %s gain %.1f evidence %.1f ratio %.2f | sine gain %.1f period %.0f s (%d periods)\n",
+          std::fprintf(stderr, "periodic %s: pick %s gain %.1f evidence %.1f ratio %.2f | sine gain %.1f period %.0f s (%d periods) | trend gain %.1f, LR %.1f | settle LR %.1f tau %.0f s\n",
                        axis_name(a), pick->kind == WholeLogWander::kFlicker ? "flicker" : "rw", pick->gain, pick->evidence(),
-                       pick->ratio, w.sinusoid.gain, w.sinusoid.period_s, w.sinusoid.n_periods);
-        if (w.sinusoid.gain - pick->gain > o.wander_sinusoid_margin) w.beyond_reason = "sinusoid";
+                       pick->ratio, w.sinusoid.gain, w.sinusoid.period_s, w.sinusoid.n_periods, w.trend.line_gain, w.trend.gain,
+                       w.trend.settle_gain, w.trend.settle_tau_s);
+        if (w.sinusoid.gain - pick->gain > o.wander_sinusoid_margin)
+          w.beyond_reason = "sinusoid";
+        else if (std::max(w.trend.gain, w.trend.settle_gain) > o.wander_trend_chi2)
+          w.beyond_reason = w.trend.gain >= w.trend.settle_gain ? "drift" : "settling";
       }
       w.beyond_limit = !w.beyond_reason.empty();
       // Within the held-out threshold, but what is left is neither a catalog effect nor stationary wander
       // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a
       // random walk, and the floor it raised hides the residual from the held-out χ².
-      const bool structured = w.beyond_reason == "jump" || w.beyond_reason == "periodic" || w.beyond_reason == "sinusoid";
+      const bool structured = w.beyond_reason == "jump" || w.beyond_reason == "periodic" || w.beyond_reason == "sinusoid" ||
+                              w.beyond_reason == "drift" || w.beyond_reason == "settling";
       // A coarse output step's rounding bias is a function of the input (noise_model.h, output_step), and an input
       // the temperature carries slowly through the steps turns it into a slow oscillation of the means: a line or
       // a jump in the whole log's residual that is neither wander nor an effect outside the catalog (varied6
@@ -2950,16 +2967,25 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         w.residual_rms = B > 0 ? std::sqrt((ax[ua].zr - fitted_means(ax[ua], f)).squaredNorm() / B) : 0.0;
         w.within_rounding = within_rounding(ua, w.residual_rms);
       }
-      // An axis already named on its held-out χ² whose residual is that sinusoid: its signature gets the sinusoid.
-      if (w.beyond_reason == "sinusoid" && over(R.gap_after, a))
+      // An axis already named on its held-out χ² whose residual is that sinusoid or transient: its signature gets it.
+      const double sig_period_s = w.beyond_reason == "sinusoid" ? w.sinusoid.period_s : 0.0;
+      const double sig_tau_s = w.beyond_reason == "settling" ? w.trend.settle_tau_s : 0.0;
+      if ((sig_period_s > 0 || sig_tau_s > 0) && over(R.gap_after, a))
         for (auto& u : R.unexplained)
-          if (u.axis == axis_name(a)) u.signature = signature_of(a, w.sinusoid.period_s);
-      if (structured && !w.within_rounding && pick->gain >= o.wander_unexplained_gain && !over(R.gap_after, a)) {
+          if (u.axis == axis_name(a)) u.signature = signature_of(a, sig_period_s, sig_tau_s);
+      // The whole log rejects the model's own level decisively: by the raise's gain, or by the drift's or
+      // settling's own (a warm-up the first temperature ramp mostly takes leaves a transient that a walk raised
+      // 4.6x gains only 15 for and the transient 41 beside it: `unseen` ooc-warmup-0 accel.x).
+      const double shape_gain = w.beyond_reason == "drift"      ? w.trend.line_gain
+                                : w.beyond_reason == "settling" ? w.trend.settle_own_gain
+                                                                : 0.0;
+      if (structured && !w.within_rounding && std::max(pick->gain, shape_gain) >= o.wander_unexplained_gain &&
+          !over(R.gap_after, a)) {
         Unexplained u;
         u.axis = axis_name(a);
         u.chi2_dof_after = R.gap_after.chi2_dof[ua];
         u.basis = "wander";
-        u.signature = signature_of(a, w.beyond_reason == "sinusoid" ? w.sinusoid.period_s : 0.0);
+        u.signature = signature_of(a, sig_period_s, sig_tau_s);
         R.unexplained.push_back(u);
       }
     }

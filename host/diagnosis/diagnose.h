@@ -193,6 +193,13 @@ struct Options {
   // beat the raise by 98–191; on the 590 other axes asked (244 blind cases of five suites) the sinusoid beats the
   // raise by at most 23 (docs/diagnosis.md § 5, "Whole-log wander").
   double wander_sinusoid_margin = 40.0;
+  // A raise that passes every check above is still refused as wander where a line in time (a drift: IEEE 952's
+  // rate ramp) or a settling transient a·e^{−t/τ} (a warm-up), beside the raise re-fitted with it, is likelier
+  // than the raise alone by more than this likelihood ratio (noise_model.h, trend_bias; Wander::trend): the walk's
+  // increments do not average to zero. A stationary walk's line is χ²(1) (80 simulated walks: at most 8.7).
+  // Measured (stop 44): true drifts 32–82 and true warm-ups 30–157 (the `unseen` suite); on the 884 other axes
+  // asked in 475 cases of six suites, the line at most 16.3 and the settling at most 15.4 (docs/diagnosis.md § 5).
+  double wander_trend_chi2 = 25.0;
   // Optional Allan curve of a simulation of the same campaign (from --sim), per axis.
   std::array<std::vector<AllanAccumulator::Point>, kNumAxes> sim_allan;
 };
@@ -342,8 +349,11 @@ struct DiagnosisResult {
     std::string beyond_reason;        // "too_large" (limit_ratio > wander_max_factor), "jump" (max_abs_z > wander_max_z
                                       // and jump_persist_z > wander_step_persist_z: a bias step)
                                       // or "periodic" (line_p < wander_max_line_p), or "sinusoid" (a sinusoid
-                                      // in time beats the raise: Options::wander_sinusoid_margin)
+                                      // in time beats the raise: Options::wander_sinusoid_margin), or "drift" /
+                                      // "settling" (a line in time / a settling transient is significant beside
+                                      // the raise: Options::wander_trend_chi2)
     PeriodicBias sinusoid;            // the best sinusoid, where the raise passed the other checks (else gain 0)
+    TrendBias trend;                  // the drift and settling shapes, asked with the sinusoid (else gains 0)
     // A jump or line on an axis with a coarse output step: the final model's residual rms over the blocks, and
     // whether it is within twice the rounding staircase's sigma (then the axis is not named unexplained for it).
     double residual_rms = 0;

@@ -676,6 +676,85 @@ PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& 
   return out;
 }
 
+TrendBias trend_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
+                     const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
+                     const WholeLogWander& raise, const std::vector<int>* seg_of) {
+  TrendBias out;
+  const int n = static_cast<int>(rows.rows()), c = static_cast<int>(rows.cols()), P = c - 1;
+  if (n <= P + 3 || !(duration_s > 0) || static_cast<int>(t_s.size()) != n) return out;
+  // The shapes, one column each: the line (a block's mean of it is its value at the block's mid time; centred and
+  // scaled to O(1) for the solve), then the settling transients e^{−(t − t_first)/τ} (a block's mean: the value
+  // at its mid time times sinh(x)/x, x = dur/2τ).
+  std::vector<double> taus;
+  for (double d = 20.0; d >= 1.5 - 1e-9; d /= std::sqrt(2.0)) taus.push_back(duration_s / d);
+  const int S = 1 + static_cast<int>(taus.size());
+  const double t_mid = 0.5 * (t_s.front() + t_s.back()), t_first = t_s.front();
+  Eigen::MatrixXd aug(n, c + S);
+  aug.leftCols(c) = rows;
+  for (int i = 0; i < n; ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    aug(i, c) = (t_s[ui] - t_mid) / duration_s;
+    for (int k = 1; k < S; ++k) {
+      const double tau = taus[static_cast<std::size_t>(k - 1)], x = 0.5 * dur_s[ui] / tau;
+      aug(i, c + k) = std::exp(-(t_s[ui] - t_first) / tau) * (x > 1e-9 ? std::sinh(x) / x : 1.0);
+    }
+  }
+  std::vector<int> base_cols(static_cast<std::size_t>(P));
+  std::iota(base_cols.begin(), base_cols.end(), 0);
+  // −2 log L (ML: Σ log S + χ²) without a shape and with each, under the wander w (nullptr: the model's own level).
+  // Not whole_log_wander's REML criterion: its log det of the columns' information changes with the columns, and
+  // a line is far better determined under white noise than under a walk (a bias of ≈ 10 in favour of the line
+  // on every walk of the unit test).
+  auto ml = [&](const WholeLogWander* w, std::vector<double>& with_shape, std::vector<double>* coef) {
+    double rw = 0, logS = 0;
+    const StochasticModel mm = with_wander(m, w, duration_s, rw_prior_var, rw);
+    const estimator::NormalEquations ne = gls_normal_equations(mm, t_s, dur_s, aug, rw, seg_of, nullptr, &logS);
+    std::vector<int> cols = base_cols;
+    cols.push_back(P);
+    for (int k = 0; k < S; ++k) {
+      cols.back() = P + k;
+      const auto f = estimator::fit_subset(ne, cols);
+      with_shape[static_cast<std::size_t>(k)] = logS + f.rss;
+      if (coef)
+        for (std::size_t i = 0; i < f.kept.size(); ++i)
+          if (f.kept[i] == P + k) (*coef)[static_cast<std::size_t>(k)] = f.theta[static_cast<Eigen::Index>(i)];
+    }
+    return logS + estimator::fit_subset(ne, base_cols).rss;
+  };
+  std::vector<double> own_shape(static_cast<std::size_t>(S)), coef(static_cast<std::size_t>(S), 0.0);
+  const double own = ml(nullptr, own_shape, &coef);
+  out.line_gain = std::max(own - own_shape[0], 0.0);
+  out.slope_per_s = coef[0] / duration_s;
+  if (raise.kind == WholeLogWander::kNone) return out;
+  // Both profiled over the raise's own level from 1/16 to 2× the raise (the raised line beside a drift wants
+  // less of it), and the model's own level.
+  double best = own;
+  std::vector<double> best_shape = own_shape, v_shape(static_cast<std::size_t>(S));
+  for (int k = -32; k <= 8; ++k) {
+    WholeLogWander w = raise;
+    const double f = std::pow(2.0, k / 8.0);
+    if (w.kind == WholeLogWander::kRandomWalk) w.K *= f;
+    else w.bank_sigma *= f;
+    const double v = ml(&w, v_shape, nullptr);
+    if (std::isfinite(v)) best = std::min(best, v);
+    for (int s = 0; s < S; ++s)
+      if (std::isfinite(v_shape[static_cast<std::size_t>(s)]))
+        best_shape[static_cast<std::size_t>(s)] = std::min(best_shape[static_cast<std::size_t>(s)], v_shape[static_cast<std::size_t>(s)]);
+  }
+  out.gain = best - best_shape[0];
+  out.n_shapes = S;
+  for (int s = 1; s < S; ++s) {
+    const double g = best - best_shape[static_cast<std::size_t>(s)];
+    if (g > out.settle_gain) {
+      out.settle_gain = g;
+      out.settle_own_gain = std::max(own - own_shape[static_cast<std::size_t>(s)], 0.0);
+      out.settle_tau_s = taus[static_cast<std::size_t>(s - 1)];
+      out.settle_amplitude = coef[static_cast<std::size_t>(s)];
+    }
+  }
+  return out;
+}
+
 double weighted_sum_variance(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                              const std::vector<int>& seg, const std::vector<double>& u, const std::vector<double>& diag,
                              double t_start, double rw_prior_var) {

@@ -176,6 +176,31 @@ PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& 
                            const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
                            const std::vector<int>* seg_of = nullptr);
 
+// A bias that moves linearly with time over the log (ageing, package stress settling; IEEE 952's rate ramp)
+// against the raised wander that would take it, as periodic_bias asks of a sinusoid. The walk's whitening
+// differences a line down to a constant innovation, a fraction of the innovations' spread, and a raised level
+// takes the rest: a line and a walk reach almost the same likelihood (the `unseen` suite's ooc-drift cases, a
+// drift of 20–50 segment σ over the log: the walk within 0.4–67 of the line alone, raise ratio 5–9, the axes
+// called at noise). The question is whether the walk's increments average to zero: gain is the likelihood ratio
+// of the raise re-fitted beside a line c·(t − t_mid)/duration_s against `raise` alone (whole_log_wander on the
+// rows with that column, the same kind of line; −2 log L, one parameter, the level profiled in both), χ²(1)
+// under a stationary walk. line_gain: the line's Δχ² under m itself (the model's own level, no raise);
+// slope_per_s: that line's c / duration_s. rows = [z | x], m the model's own level as for whole_log_wander.
+// O(whole_log_wander).
+//
+// The same question of a settling transient a·e^{−(t − t_first)/τ} (a turn-on warm-up: die and package stress
+// relaxing after power-up), τ from duration_s/20 to duration_s/1.5 on a grid of √2 (n_shapes − 1 of them):
+// settle_gain is the best one's likelihood ratio, settle_tau_s its τ, settle_amplitude its a under the model's
+// own level at t_first and settle_own_gain its Δχ² there. O(whole_log_wander · (P + n_shapes)² / P²).
+struct TrendBias {
+  double gain = 0, line_gain = 0, slope_per_s = 0;
+  double settle_gain = 0, settle_own_gain = 0, settle_tau_s = 0, settle_amplitude = 0;
+  int n_shapes = 0;
+};
+TrendBias trend_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
+                     const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
+                     const WholeLogWander& raise, const std::vector<int>* seg_of = nullptr);
+
 // Rounding quantiser of an output (docs/diagnosis.md § 2, "output step"). A quantiser whose step Δ is not
 // small against the noise ahead of it (σ below about 0.6 Δ) leaves a bias in the mean of a constant input x that
 // depends on where x falls between two steps: Σ_k (−1)^k (Δ/πk) e^{−2π²k²σ²/Δ²} sin(2πkx/Δ). Over the poses of a

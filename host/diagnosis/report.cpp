@@ -129,6 +129,15 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
         line += "; not a stationary bias wander either: a sinusoid of period " + fmt("%.0f", w.sinusoid.period_s) +
                 " s explains the whole log's residual better (-2 log L gain " + fmt("%.0f", w.sinusoid.gain) + " against " +
                 fmt("%.0f", w.measured.gain) + " for a " + (w.kind == "flicker" ? "flicker" : "random walk") + ")";
+      else if (w.beyond_limit && (w.beyond_reason == "drift" || w.beyond_reason == "settling"))
+        line += "; not a stationary bias wander either: the bias " +
+                (w.beyond_reason == "drift"
+                     ? "drifts linearly by " + fmt("%.3g", w.trend.slope_per_s * 3600.0) + " " + unit_of(a) + " per hour"
+                     : "settles by " + fmt("%.3g", w.trend.settle_amplitude) + " " + unit_of(a) + " from the start of the log, time constant " +
+                           fmt("%.0f", w.trend.settle_tau_s) + " s,") +
+                " which a " + (w.kind == "flicker" ? "flicker" : "random walk") + " " + fmt("%.2g", w.measured.ratio) +
+                "x the dwells' does not explain (likelihood ratio " +
+                fmt("%.0f", w.beyond_reason == "drift" ? w.trend.gain : w.trend.settle_gain) + ")";
     } else {
       std::vector<std::string> by, details;  // details: what a selected effect's nonlinear parameters read
       for (const auto& st : r.selected)
@@ -205,6 +214,8 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       line += std::string("; the whole log's residual carries ") +
               (r.wander[u].beyond_reason == "periodic" ? "a line of period " + fmt("%.0f", r.wander[u].measured.line_period_s) + " s"
                : r.wander[u].beyond_reason == "sinusoid" ? "a sinusoid of period " + fmt("%.0f", r.wander[u].sinusoid.period_s) + " s"
+               : r.wander[u].beyond_reason == "drift"    ? "a linear drift of " + fmt("%.2g", r.wander[u].trend.slope_per_s * 3600.0) + " " + unit_of(a) + " per hour"
+               : r.wander[u].beyond_reason == "settling" ? "a settling of time constant " + fmt("%.0f", r.wander[u].trend.settle_tau_s) + " s"
                                                        : std::string("a bias step")) +
               ", within the rounding (residual rms " + fmt("%.2g", r.wander[u].residual_rms) + ", under twice its sigma)";
     out.push_back(line);
@@ -357,6 +368,9 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"autocorr_sq", num(r.wander[u].measured.autocorr_sq)}, {"line_p", num(r.wander[u].measured.line_p)},
                                                  {"line_period_s", num(r.wander[u].measured.line_period_s)},
                                                  {"sinusoid_gain", num(r.wander[u].sinusoid.gain)}, {"sinusoid_period_s", num(r.wander[u].sinusoid.period_s)},
+                                                 {"drift_lr", num(r.wander[u].trend.gain)}, {"drift_per_h", num(r.wander[u].trend.slope_per_s * 3600.0)},
+                                                 {"settling_lr", num(r.wander[u].trend.settle_gain)}, {"settling_tau_s", num(r.wander[u].trend.settle_tau_s)},
+                                                 {"settling_amplitude", num(r.wander[u].trend.settle_amplitude)},
                                                  {"walk_flicker_B", num(r.wander[u].walk_flicker_B)}, {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
                                             {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))},

@@ -343,6 +343,45 @@ TEST(DiagnosisNoiseModel, TwoCyclesOfASinusoidAreToldFromARandomWalk) {
   }
 }
 
+// A linear drift and a warm-up against a random walk (trend_bias, Options::wander_trend_chi2). A walk raised for a
+// line reaches almost the line's likelihood, so the two are not compared head to head: the walk is re-fitted
+// beside the shape, and the shape's likelihood ratio is χ²(1) for a true walk (8 settling times: the largest of
+// 8 correlated χ²(1)) and large for a drift or a transient, whose increments do not average to zero. The drift:
+// 25 block σ over the log; the warm-up: 40 block σ at the start, τ 300 s; as the `unseen` suite's cases.
+TEST(DiagnosisNoiseModel, ADriftAndAWarmUpAreToldFromARandomWalk) {
+  const int n = 360;
+  const double dur_s = 5.0, N = 1e-3, K_true = 2e-4, sigma_b = N / std::sqrt(dur_s), tau_s = 300.0;
+  const double slope = 25.0 * sigma_b / (n * dur_s);
+  std::vector<double> t, d;
+  const StochasticModel m = faint_flicker_model(N, n, dur_s, t, d);
+  auto run = [&](int kind, std::uint64_t seed) {
+    const Eigen::MatrixXd rows = walk_rows(n, dur_s, N, kind == 0 ? K_true : 0.0, seed, [&](int i, double rw) {
+      const double ti = t[static_cast<std::size_t>(i)];
+      return kind == 0 ? rw : kind == 1 ? slope * ti : 40.0 * sigma_b * std::exp(-ti / tau_s);
+    });
+    const auto l = whole_log_wander(m, t, d, rows, 0.0, n * dur_s, 1e6);
+    const WholeLogWander& raise = l[0].gain >= l[1].gain ? l[0] : l[1];
+    EXPECT_GT(raise.gain, 25.0) << kind << " " << seed << ": the likelihood wants a raise (else the rule is not exercised)";
+    return trend_bias(m, t, d, rows, 0.0, n * dur_s, raise);
+  };
+  const double limit = Options{}.wander_trend_chi2;
+  int walks_over_4 = 0;
+  for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+    const TrendBias w = run(0, seed), l = run(1, seed), e = run(2, seed);
+    EXPECT_EQ(w.n_shapes, 9);  // the line and 8 settling times
+    EXPECT_LT(std::max(w.gain, w.settle_gain), limit) << seed << ": a random walk's increments average to zero";
+    walks_over_4 += w.gain > 3.84;
+    EXPECT_GT(l.gain, limit) << seed << ": a drift's do not";
+    EXPECT_GT(l.gain, l.settle_gain) << seed << ": and a line is the likelier shape";
+    EXPECT_NEAR(l.slope_per_s, slope, 0.1 * slope) << seed;
+    EXPECT_GT(e.settle_gain, limit) << seed << ": nor a warm-up's";
+    EXPECT_GT(e.settle_gain, e.gain) << seed << ": and a transient is the likelier shape";
+    EXPECT_GT(e.settle_tau_s, tau_s / std::sqrt(2.0)) << seed;
+    EXPECT_LT(e.settle_tau_s, tau_s * std::sqrt(2.0)) << seed;
+  }
+  EXPECT_LE(walks_over_4, 3) << "a line's chi2(1) exceeds 3.84 in 5 % of walks (80 seeds: 8)";
+}
+
 // The cells' standard error: the O(n) sum against the double sum of block_covariance, on a model with every
 // correlated term (GM, a flicker bank, a random walk with its prior, a per-segment bias) over irregular blocks in
 // two segments. The per-segment bias is block_covariance's within a segment and absent across.
