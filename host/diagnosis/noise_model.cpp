@@ -688,6 +688,7 @@ TrendBias trend_bias(const StochasticModel& m, const std::vector<double>& t_s, c
   std::vector<double> taus;
   for (double d = 20.0; d >= 1.5 - 1e-9; d /= std::sqrt(2.0)) taus.push_back(duration_s / d);
   const int S = 1 + static_cast<int>(taus.size());
+  out.n_shapes = S;
   const double t_mid = 0.5 * (t_s.front() + t_s.back()), t_first = t_s.front();
   Eigen::MatrixXd aug(n, c + S);
   aug.leftCols(c) = rows;
@@ -701,10 +702,8 @@ TrendBias trend_bias(const StochasticModel& m, const std::vector<double>& t_s, c
   }
   std::vector<int> base_cols(static_cast<std::size_t>(P));
   std::iota(base_cols.begin(), base_cols.end(), 0);
-  // −2 log L (ML: Σ log S + χ²) without a shape and with each, under the wander w (nullptr: the model's own level).
-  // Not whole_log_wander's REML criterion: its log det of the columns' information changes with the columns, and
-  // a line is far better determined under white noise than under a walk (a bias of ≈ 10 in favour of the line
-  // on every walk of the unit test).
+  // −2 log L (ML: Σ log S + χ², not REML: see the header) without a shape and with each, under the wander w
+  // (nullptr: the model's own level); coef: each shape's coefficient.
   auto ml = [&](const WholeLogWander* w, std::vector<double>& with_shape, std::vector<double>* coef) {
     double rw = 0, logS = 0;
     const StochasticModel mm = with_wander(m, w, duration_s, rw_prior_var, rw);
@@ -742,7 +741,6 @@ TrendBias trend_bias(const StochasticModel& m, const std::vector<double>& t_s, c
         best_shape[static_cast<std::size_t>(s)] = std::min(best_shape[static_cast<std::size_t>(s)], v_shape[static_cast<std::size_t>(s)]);
   }
   out.gain = best - best_shape[0];
-  out.n_shapes = S;
   for (int s = 1; s < S; ++s) {
     const double g = best - best_shape[static_cast<std::size_t>(s)];
     if (g > out.settle_gain) {

@@ -182,16 +182,18 @@ PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& 
 // takes the rest: a line and a walk reach almost the same likelihood (the `unseen` suite's ooc-drift cases, a
 // drift of 20–50 segment σ over the log: the walk within 0.4–67 of the line alone, raise ratio 5–9, the axes
 // called at noise). The question is whether the walk's increments average to zero: gain is the likelihood ratio
-// of the raise re-fitted beside a line c·(t − t_mid)/duration_s against `raise` alone (whole_log_wander on the
-// rows with that column, the same kind of line; −2 log L, one parameter, the level profiled in both), χ²(1)
-// under a stationary walk. line_gain: the line's Δχ² under m itself (the model's own level, no raise);
-// slope_per_s: that line's c / duration_s. rows = [z | x], m the model's own level as for whole_log_wander.
-// O(whole_log_wander).
+// of the raise's kind beside a line c·(t − t_mid)/duration_s against it alone, each with its level profiled (the
+// raise's level × 2^(k/8), k = −32..8, and the model's own), on the ML likelihood Σ log S + χ² (one parameter:
+// χ²(1) under a stationary walk). Not whole_log_wander's REML criterion, whose log det of the columns'
+// information changes with the columns (≈ 10 in the line's favour on every walk of the unit test). line_gain:
+// the line's Δχ² under m's own level (no raise); slope_per_s: that line's c / duration_s. rows = [z | x], m the
+// model's own level as for whole_log_wander.
 //
 // The same question of a settling transient a·e^{−(t − t_first)/τ} (a turn-on warm-up: die and package stress
 // relaxing after power-up), τ from duration_s/20 to duration_s/1.5 on a grid of √2 (n_shapes − 1 of them):
 // settle_gain is the best one's likelihood ratio, settle_tau_s its τ, settle_amplitude its a under the model's
-// own level at t_first and settle_own_gain its Δχ² there. O(whole_log_wander · (P + n_shapes)² / P²).
+// own level at t_first and settle_own_gain its Δχ² there.
+// O(42 · n · (P + n_shapes)² + 42 · n_shapes · P³): one GLS pass per level, every shape fitted from it.
 struct TrendBias {
   double gain = 0, line_gain = 0, slope_per_s = 0;
   double settle_gain = 0, settle_own_gain = 0, settle_tau_s = 0, settle_amplitude = 0;
