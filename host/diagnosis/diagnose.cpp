@@ -1766,7 +1766,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       g.gap[static_cast<std::size_t>(a)] = h.gap();
       g.rms[static_cast<std::size_t>(a)] = h.rms();
       g.floor[static_cast<std::size_t>(a)] = h.floor();
-      g.chi2_dof[static_cast<std::size_t>(a)] = h.nb ? h.chi2 / h.nb : 0.0;
+      g.chi2_dof[static_cast<std::size_t>(a)] = h.nb ? (o.heldout_predictive ? h.chi2_pred : h.chi2) / h.nb : 0.0;
     }
     return g;
   };
@@ -2282,8 +2282,11 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   if (std::getenv("IMUFORGE_DIAG_TRACE"))
     for (int a = 0; a < kNumAxes; ++a) {
       const auto w = heldout_white(a, cols_for(ax[static_cast<std::size_t>(a)], model_ids));
-      std::fprintf(stderr, "whitened held-out %s: chi2/dof %.3f (%d segments), marginal %.3f\n", axis_name(a), w.first / w.second, w.second,
-                   R.gap_before.chi2_dof[static_cast<std::size_t>(a)]);
+      const HeldOut hr = heldout_axis(ax[static_cast<std::size_t>(a)], axg[static_cast<std::size_t>(a)],
+                                      cols_for(ax[static_cast<std::size_t>(a)], model_ids), folds);
+      std::fprintf(stderr, "whitened held-out %s: chi2/dof %.3f (%d segments), marginal %.3f (raw %.3f, predictive %.3f)\n", axis_name(a),
+                   w.first / w.second, w.second, R.gap_before.chi2_dof[static_cast<std::size_t>(a)], hr.nb ? hr.chi2 / hr.nb : 0.0,
+                   hr.nb ? hr.chi2_pred / hr.nb : 0.0);
     }
   std::set<std::pair<int, int>> cur_effects = in_model;
   std::set<ParamId> cur = model_ids;

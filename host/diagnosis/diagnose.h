@@ -106,6 +106,10 @@ struct Options {
   bool check_plausibility = true;
   // An axis whose held-out χ²/dof (withheld segments) stays above this after selection is "unexplained".
   double unexplained_chi2_dof = 3.0;
+  // The held-out χ²/dof judges each withheld fold against its predictive covariance, the training fit's
+  // uncertainty included in the segment means' own metric (estimator::HeldOut::chi2_pred), so a segment the other
+  // folds can only extrapolate to is not misfit. Off: Σ r²/v over the withheld segments (before stop 45).
+  bool heldout_predictive = true;
   // On a sensor with an unexplained axis, each selected effect is judged alone (leave-one-out): on an
   // unexplained axis it must remove more than (1 − this) of the held-out χ² excess it faces, on an explained
   // axis be needed to explain it (or remove ≥ 1 χ²/dof); otherwise it is withdrawn (not an explanation).
@@ -216,7 +220,7 @@ struct Gap {
   std::array<double, kNumAxes> gap{};
   std::array<double, kNumAxes> rms{};      // held-out block-level RMS
   std::array<double, kNumAxes> floor{};    // modelled floor
-  std::array<double, kNumAxes> chi2_dof{}; // held-out χ² / blocks
+  std::array<double, kNumAxes> chi2_dof{}; // held-out χ² / segments (predictive: Options::heldout_predictive)
   // χ² / dof of the model's GLS fit on all blocks under the adopted whole-log wander (NaN: none adopted on that
   // axis). Where finite, an axis is unexplained only when this exceeds the threshold too (diagnose.cpp
   // gap_verdict says why).

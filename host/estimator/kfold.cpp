@@ -63,12 +63,26 @@ HeldOut heldout(const FoldedNormalEquations& fit, const FoldedNormalEquations& s
       gs[i] = sk.rhs[f.kept[static_cast<size_t>(i)]];
       for (int j = 0; j < p; ++j) Hs(i, j) = sk.info(f.kept[static_cast<size_t>(i)], f.kept[static_cast<size_t>(j)]);
     }
-    double c = sk.cost;
+    double c = sk.cost, c_pred = 0;
     if (p > 0) {
       c += -2.0 * f.theta.dot(gs) + f.theta.dot(Hs * f.theta);
       h.expected += (Hs * f.cov).trace();
+      // H_train + H_k in the score's own metric: the score's total information over the kept columns (see the
+      // header for why not the fit's).
+      Eigen::MatrixXd M(p, p);
+      for (int i = 0; i < p; ++i)
+        for (int j = 0; j < p; ++j)
+          M(i, j) = score.total.info(f.kept[static_cast<size_t>(i)], f.kept[static_cast<size_t>(j)]);
+      const Eigen::VectorXd e = gs - Hs * f.theta;
+      // Scaled as fit_subset scales, so columns in different units do not spoil the factorization.
+      Eigen::VectorXd d = M.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+      const Eigen::MatrixXd Ms = d.asDiagonal() * M * d.asDiagonal();
+      const Eigen::VectorXd es = d.asDiagonal() * e;
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(Ms);
+      if (ldlt.info() == Eigen::Success) c_pred = es.dot(ldlt.solve(es));
     }
     h.chi2 += c;
+    h.chi2_pred += std::max(c - c_pred, 0.0);
     h.expected += static_cast<double>(sk.n_obs);
     h.W += score.weight[static_cast<size_t>(k)];
     h.nb += static_cast<int>(sk.n_obs);

@@ -42,6 +42,19 @@ int interleaved_fold(int unit, int folds);
 // The held-out score of a column set summed over the withheld folds.
 struct HeldOut {
   double chi2 = 0, expected = 0, W = 0;
+  // Σ over folds of rᵀ(V + X Σ_train Xᵀ)⁻¹ r: the withheld residuals judged against their predictive covariance,
+  // the fit's uncertainty included as the rank-p correlation it is, not as the scalar tr(H_k Σ_train) that
+  // `expected` adds. It differs from chi2 where a withheld fold lies outside the training folds' span (a long
+  // soak withheld whole, its temperatures reached by no other fold): the extrapolated prediction's error is then
+  // large along a few directions of the fold's design, and chi2 counts it as misfit. By Woodbury,
+  // c − eᵀ(H_train + H_k)⁻¹e with e = g_k − H_k θ. Σ_train = H_train⁻¹ is taken in the SCORE's metric (its rows
+  // of the training folds), so H_train + H_k is the score's total information: a leverage correction of the
+  // withheld rows' design. The fit's own covariance is in another metric where the two differ (the diagnosis fits
+  // blocks under a correlated bias, GLS, and scores segment means on their marginal variances): a random walk
+  // leaves a bias column little GLS information, and judged against it every fold's mean offset was forgiven
+  // (varied14 ooc-periodic-1 gyro.x: 24.7 per segment to 2.6, a periodic bias of 20–50 σ called at noise). Where
+  // fit and score are one set of statistics, E = nb under the model whatever the design. O(p³) per fold.
+  double chi2_pred = 0;
   int nb = 0;
   // sqrt(weighted mean of squared held-out residuals) − the same for their predicted variance, units of r.
   double gap() const;

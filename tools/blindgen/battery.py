@@ -7,7 +7,7 @@ diagnosis against the acceptance figures of issue 12 (docs/diagnosis.md, "Blind 
   battery.py --imuforge build/host/bin/imuforge --suite full --work /tmp/blind       # the benchmark
   battery.py ... --suite holdout   # stochastic + mixed cases at seeds no change was tuned on (stop 24)
   battery.py ... --suite varied    # every kind on another lab's schedule (blindgen size 'varied', stop 25)
-  battery.py ... --suite varied2 / varied3 / varied4 / varied5 / varied6 / varied7 / varied8 / varied9 / varied10 / varied11 / varied12 / varied13   # the same schedule at fresh seeds (stops 26, 29, 30, 31, 36–42, 44)
+  battery.py ... --suite varied2 / varied3 / varied4 / varied5 / varied6 / varied7 / varied8 / varied9 / varied10 / varied11 / varied12 / varied13 / varied14   # the same schedule at fresh seeds (stops 26, 29, 30, 31, 36–42, 44, 45)
   battery.py ... --source simulate      # same sensors through `imuforge simulate` (catalog effects only)
   battery.py ... --floors tools/blindgen/floors-smoke.json   # exit 1 when a figure falls below its floor
 
@@ -187,6 +187,10 @@ def suite(name):
         # the varied schedule at new seeds (15000+), added at stop 44 and run on the stop-43 binary before any
         # change: weighted to multi-effect recall and to out-of-catalog cases
         return varied_fresh(15000, per_class_null=3, per_class_stoch=4, n_random=25, ooc_each=2)
+    if name == 'varied14':
+        # the varied schedule at new seeds (16000+), added at stop 45 and run on the stop-44 binary before any
+        # change: weighted to null sensors (stop 45 changes how a withheld segment is scored)
+        return varied_fresh(16000, per_class_null=5, per_class_stoch=3, n_random=20, ooc_each=2)
     if name == 'unseen':
         # out-of-catalog kinds written at stop 44 and first run on the stop-43 binary (a warm-up transient, a
         # linear ageing drift), which nothing in the diagnosis had been tuned on; stop 44's drift and settling
@@ -563,7 +567,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'unseen'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'unseen'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
