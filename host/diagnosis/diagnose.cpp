@@ -2284,9 +2284,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       const auto w = heldout_white(a, cols_for(ax[static_cast<std::size_t>(a)], model_ids));
       const HeldOut hr = heldout_axis(ax[static_cast<std::size_t>(a)], axg[static_cast<std::size_t>(a)],
                                       cols_for(ax[static_cast<std::size_t>(a)], model_ids), folds);
-      std::fprintf(stderr, "whitened held-out %s: chi2/dof %.3f (%d segments), marginal %.3f (raw %.3f, predictive %.3f)\n", axis_name(a),
-                   w.first / w.second, w.second, R.gap_before.chi2_dof[static_cast<std::size_t>(a)], hr.nb ? hr.chi2 / hr.nb : 0.0,
-                   hr.nb ? hr.chi2_pred / hr.nb : 0.0);
+      std::fprintf(stderr, "whitened held-out %s: chi2/dof %.3f (%d segments), marginal %.3f (sum r2/v %.3f)\n", axis_name(a),
+                   w.first / w.second, w.second, R.gap_before.chi2_dof[static_cast<std::size_t>(a)], hr.nb ? hr.chi2 / hr.nb : 0.0);
     }
   std::set<std::pair<int, int>> cur_effects = in_model;
   std::set<ParamId> cur = model_ids;

@@ -67,19 +67,14 @@ HeldOut heldout(const FoldedNormalEquations& fit, const FoldedNormalEquations& s
     if (p > 0) {
       c += -2.0 * f.theta.dot(gs) + f.theta.dot(Hs * f.theta);
       h.expected += (Hs * f.cov).trace();
-      // H_train + H_k in the score's own metric: the score's total information over the kept columns (see the
-      // header for why not the fit's).
-      Eigen::MatrixXd M(p, p);
-      for (int i = 0; i < p; ++i)
-        for (int j = 0; j < p; ++j)
-          M(i, j) = score.total.info(f.kept[static_cast<size_t>(i)], f.kept[static_cast<size_t>(j)]);
-      const Eigen::VectorXd e = gs - Hs * f.theta;
-      // Scaled as fit_subset scales, so columns in different units do not spoil the factorization.
-      Eigen::VectorXd d = M.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
-      const Eigen::MatrixXd Ms = d.asDiagonal() * M * d.asDiagonal();
-      const Eigen::VectorXd es = d.asDiagonal() * e;
-      const Eigen::LDLT<Eigen::MatrixXd> ldlt(Ms);
-      if (ldlt.info() == Eigen::Success) c_pred = es.dot(ldlt.solve(es));
+      // eᵀ(H_train + H_k)⁻¹e, H_train + H_k in the score's own metric: its total information (the header says why
+      // not the fit's). Solved by fit_subset, whose drop tolerance keeps a column that is a combination of the
+      // others at the segment level (a rate's derivative averaged over whole dwells) from blowing the term up.
+      NormalEquations m = score.total;
+      m.rhs.setZero();
+      for (int i = 0; i < p; ++i) m.rhs[f.kept[static_cast<size_t>(i)]] = gs[i] - Hs.row(i).dot(f.theta);
+      const SubsetFit q = fit_subset(m, f.kept, nullptr, drop_tol);
+      for (int i = 0; i < static_cast<int>(q.kept.size()); ++i) c_pred += m.rhs[q.kept[static_cast<size_t>(i)]] * q.theta[i];
     }
     h.chi2 += c;
     h.chi2_pred += std::max(c - c_pred, 0.0);
