@@ -1143,6 +1143,10 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
   // the linear terms only partly absorb (a cubic g-sensitivity).
   for (int k = 0; k < 3; ++k) feats.push_back({std::string("f_") + ax[k] + "^3", [k](const Block& b) { return b.f[k] * b.f[k] * b.f[k]; }});
   for (int k = 0; k < 3; ++k) feats.push_back({std::string("w_") + ax[k] + "^3", [k](const Block& b) { return b.w[k] * b.w[k] * b.w[k]; }});
+  // The rotation speed (block mean of |ω|): what a rectified rate follows (bearing friction, a motor's vibration
+  // or field that grows with speed, whatever the direction). Even in ω like ω², but linear in speed: on a
+  // campaign with several rate levels the two part.
+  feats.push_back({"|w|", [](const Block& b) { return b.absw; }});
   feats.push_back({"T", [](const Block& b) { return b.T; }});
   feats.push_back({"Tdot", [](const Block& b) { return b.Tdot; }});
   feats.push_back({"time", [](const Block& b) { return b.t; }});
@@ -2164,12 +2168,23 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // The whole log's wander of axis a under the model `ids` (both lines, noise_model.h), and why a line's maximiser
   // is not wander: too large, a jump, or correlated innovations (a periodic bias); "" when it is. The one rule for
   // the one-turn hysteresis check, the wander re-test and the final model's wander that diagnose() decides to carry.
+  // What a bias wander's spread must not follow (WholeLogWander::hetero_*): per block, the rotation speed and the
+  // magnitude of the axis' own input (|f_a| for an accelerometer axis, |ω_a| for a gyro axis).
+  std::array<Eigen::MatrixXd, kNumAxes> hetero_cov;
+  for (int a = 0; a < kNumAxes; ++a) {
+    auto& Z = hetero_cov[static_cast<std::size_t>(a)];
+    Z.resize(static_cast<Eigen::Index>(blocks.size()), 2);
+    for (std::size_t b = 0; b < blocks.size(); ++b) {
+      Z(static_cast<Eigen::Index>(b), 0) = blocks[b].absw;
+      Z(static_cast<Eigen::Index>(b), 1) = std::fabs(a < 3 ? blocks[b].f[a] : blocks[b].w[a - 3]);
+    }
+  }
   auto wander_lines = [&](int a, const std::set<ParamId>& ids) {
     const auto ua = static_cast<std::size_t>(a);
     const AxisData& ad = ax[ua];
     const Fit f = fit_axis(ad, cols_for(ad, ids), -1);
     return whole_log_wander(R.stoch[ua], blk_t, blk_dur, design_rows(ad, f.kept, 0), R.rw_prior_var[ua], R.duration_s,
-                            std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg);
+                            std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg, &hetero_cov[ua]);
   };
   auto wander_reason = [&](const std::array<WholeLogWander, 3>& lines, const WholeLogWander& l) -> const char* {
     const bool rw_likelier = raises(lines[1]) && (!raises(lines[0]) || lines[1].gain >= lines[0].gain);
@@ -2615,30 +2630,99 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // effect); a stand-in leaves its remainder (cubic g-sensitivity read as g_sensitivity: LR 585 for an excess of
   // 531, on an axis the effects piled on it had brought to held-out χ²/dof 1.8). Its axis then faces the
   // unexplained test below with the stand-in gone.
+  //
+  // The check is per axis, and so is what it withdraws when the effect stands on the sensor's other axes by itself.
+  // A true effect of one axis pair beside an out-of-catalog term on another axis fits part of that term there
+  // through its own components on that axis, and fails the form there alone (`unseen2` mixed-cross_w2: a true
+  // gyro misalign_temp on y and z, and a gyro.x bias in ω_z², RESET LR 9173 on gyro.x; the whole effect was
+  // withdrawn and gyro.z left at held-out χ²/dof 4.2). Its components on the failing axes are withdrawn, and the
+  // effect is kept when the LR of its components on the others, under the likelihood's noise model, is
+  // significant at the selection's level (α over the candidates) and none of them is shared with a failing axis
+  // (timing's latency acts on all three). Otherwise it is withdrawn whole, as before.
   {
     std::vector<std::pair<int, int>> form_drop;
+    std::vector<ParamId> form_trim;
+    // The effect's parameters acting on axis a (catalog ids in that axis' columns).
+    auto ids_on_axis = [&](Sensor s, Effect e, int a) {
+      std::vector<ParamId> out;
+      for (ParamId id : ax[static_cast<std::size_t>(a)].cols) {
+        const auto& pi = model::param_info(id);
+        if (pi.sensor == s && pi.effect == e && cur.count(id)) out.push_back(id);
+      }
+      return out;
+    };
     for (const auto& ef : cur_effects) {
       if (fixed_effects.count(ef)) continue;
+      const Sensor s = static_cast<Sensor>(ef.first);
+      const Effect e = static_cast<Effect>(ef.second);
+      std::vector<int> bad;
+      std::string why;
       for (int a = 3 * ef.first; a < 3 * ef.first + 3; ++a) {
         double excess = 0, share = 0;
-        const double lr = form_lr(cur, static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second), a, excess, share);
+        const double lr = form_lr(cur, s, e, a, excess, share);
         if (std::getenv("IMUFORGE_DIAG_TRACE") && lr > kFormLr)
-          std::fprintf(stderr, "form %s.%s %s: LR %.1f excess %.1f share %.3g\n", model::sensor_name(static_cast<Sensor>(ef.first)),
-                       model::effect_info(static_cast<Effect>(ef.second)).name, axis_name(a), lr, excess, share);
+          std::fprintf(stderr, "form %s.%s %s: LR %.1f excess %.1f share %.3g\n", model::sensor_name(s), model::effect_info(e).name,
+                       axis_name(a), lr, excess, share);
         if (!(lr > kFormLr && excess > 0 && lr >= 0.5 * excess && share >= kFormShare)) continue;
-        char buf[360];
-        std::snprintf(buf, sizeof buf,
-                      "%s.%s withdrawn: what it leaves on %s is a nonlinear function of its own signal (square/cube LR %.1f "
-                      "on 2 dof, %.0f %% of the remaining in-sample excess, %.2g of its own signal): the catalog form does "
-                      "not fit; an out-of-catalog function of the same inputs",
-                      model::sensor_name(static_cast<Sensor>(ef.first)), model::effect_info(static_cast<Effect>(ef.second)).name,
-                      axis_name(a), lr, 100.0 * lr / excess, share);
-        R.warnings.push_back(buf);
-        R.withdrawn_by_check.push_back({effect_key(static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second)), "its form does not fit"});
-        form_drop.push_back(ef);
-        break;
+        if (why.empty()) {
+          char buf[300];
+          std::snprintf(buf, sizeof buf,
+                        "what it leaves on %s is a nonlinear function of its own signal (square/cube LR %.1f on 2 dof, %.0f %% "
+                        "of the remaining in-sample excess, %.2g of its own signal): the catalog form does not fit; an "
+                        "out-of-catalog function of the same inputs",
+                        axis_name(a), lr, 100.0 * lr / excess, share);
+          why = buf;
+        }
+        bad.push_back(a);
       }
+      if (bad.empty()) continue;
+      // Its standing on the axes where the form fits, by itself.
+      std::set<ParamId> bad_ids;
+      for (int a : bad)
+        for (ParamId id : ids_on_axis(s, e, a)) bad_ids.insert(id);
+      double lr_rest = 0;
+      int dof_rest = 0;
+      bool separable = !bad_ids.empty();
+      std::string kept_on;
+      for (int b = 3 * ef.first; b < 3 * ef.first + 3 && separable; ++b) {
+        if (std::find(bad.begin(), bad.end(), b) != bad.end()) continue;
+        const std::vector<ParamId> own = ids_on_axis(s, e, b);
+        for (ParamId id : own) separable = separable && !bad_ids.count(id);
+        if (own.empty() || !separable) continue;
+        const auto ub = static_cast<std::size_t>(b);
+        const AxisData& ad = ax[ub];
+        std::set<ParamId> without = cur;
+        for (ParamId id : own) without.erase(id);
+        const Fit f1 = fit_axis(ad, cols_for(ad, cur), -1);
+        const Fit f0 = fit_axis(ad, cols_for(ad, without), -1);
+        if (f1.kept.size() <= f0.kept.size()) continue;
+        lr_rest += std::max(gls_m2ll(ad, R.stoch[ub], R.rw_prior_var[ub], f0.kept, false) -
+                                gls_m2ll(ad, R.stoch[ub], R.rw_prior_var[ub], f1.kept, false),
+                            0.0);
+        dof_rest += static_cast<int>(f1.kept.size() - f0.kept.size());
+        kept_on += (kept_on.empty() ? "" : ", ") + std::string(axis_name(b));
+      }
+      const double level = o.alpha / static_cast<double>(std::max<std::size_t>(1, candidates.size()));
+      const double p_rest = dof_rest > 0 ? chi2_sf(lr_rest, dof_rest) : 1.0;
+      if (std::getenv("IMUFORGE_DIAG_TRACE"))
+        std::fprintf(stderr, "form %s.%s: fails on %zu axis(es); elsewhere LR %.1f on %d dof, p %.2g (level %.2g)%s\n",
+                     model::sensor_name(s), model::effect_info(e).name, bad.size(), lr_rest, dof_rest, p_rest, level,
+                     separable ? "" : ", shares parameters with a failing axis");
+      if (separable && dof_rest > 0 && p_rest < level) {
+        std::string on;
+        for (int a : bad) on += (on.empty() ? "" : ", ") + std::string(axis_name(a));
+        char lrs[64];
+        std::snprintf(lrs, sizeof lrs, "%.1f on %d dof", lr_rest, dof_rest);
+        R.warnings.push_back(effect_key(s, e) + " kept on " + kept_on + " (its own LR there " + lrs + "), its components on " + on +
+                             " withdrawn: " + why);
+        form_trim.insert(form_trim.end(), bad_ids.begin(), bad_ids.end());
+        continue;
+      }
+      R.warnings.push_back(effect_key(s, e) + " withdrawn: " + why);
+      R.withdrawn_by_check.push_back({effect_key(s, e), "its form does not fit"});
+      form_drop.push_back(ef);
     }
+    for (ParamId id : form_trim) cur.erase(id);
     for (const auto& ef : form_drop) withdraw(ef);
   }
   // Output step (noise_model.h, output_step): on an axis rounded to a step the noise does not dither, the
@@ -2916,9 +3000,10 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       auto reason = [&](const WholeLogWander& l) { return wander_reason(lines, l); };
       if (std::getenv("IMUFORGE_DIAG_TRACE"))
         for (const auto& l : lines)
-          std::fprintf(stderr, "wander %s %s: ratio %.2f gain %.1f max|z| %.2f (next %.2f) LB p %.2g sum r^2 %.3f line p %.2g period %.0f s\n",
+          std::fprintf(stderr, "wander %s %s: ratio %.2f gain %.1f max|z| %.2f (next %.2f) LB p %.2g sum r^2 %.3f line p %.2g period %.0f s hetero LM %.1f p %.2g ratio %.2f\n",
                        axis_name(a), l.below_likelihood ? "floor" : l.kind == WholeLogWander::kFlicker ? "flicker" : l.kind == WholeLogWander::kRandomWalk ? "rw" : "none",
-                       l.ratio, l.gain, l.max_abs_z, l.jump_persist_z, l.whiteness_p, l.autocorr_sq, l.line_p, l.line_period_s);
+                       l.ratio, l.gain, l.max_abs_z, l.jump_persist_z, l.whiteness_p, l.autocorr_sq, l.line_p, l.line_period_s,
+                       l.hetero_lm, l.hetero_p, l.hetero_ratio);
       const WholeLogWander* pick = wander_pick(lines);
       // No raise above the likelihood's level would be carried, but the whole log prefers a floor between the
       // dwells' point estimate and that level (noise_model.h, below_likelihood): the verdict's floor takes it.
@@ -2931,6 +3016,11 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       w.value = pick->kind == WholeLogWander::kFlicker ? pick->B : pick->K;
       w.measured = *pick;
       w.beyond_reason = reason(*pick);
+      // Asked of the final model's raise only: during selection a catalog effect not yet in the model leaves the same
+      // input-dependent spread, and the raise that takes it there is what the candidate's test is judged against.
+      if (w.beyond_reason.empty() && !pick->below_likelihood && pick->material() && pick->hetero_p < o.wander_max_hetero_p &&
+          pick->hetero_ratio >= o.wander_hetero_ratio && pick->ratio >= o.wander_hetero_min_raise)
+        w.beyond_reason = "input";
       // A raise that passes its checks and would be carried: is the residual it takes a sinusoid of a few cycles
       // rather than wander (noise_model.h, periodic_bias)? Asked of the raise alone: the verdict's floor is judged
       // from a different level, and a refused raise is not carried anyway.
@@ -2957,7 +3047,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a
       // random walk, and the floor it raised hides the residual from the held-out χ².
       const bool structured = w.beyond_reason == "jump" || w.beyond_reason == "periodic" || w.beyond_reason == "sinusoid" ||
-                              w.beyond_reason == "drift" || w.beyond_reason == "settling";
+                              w.beyond_reason == "drift" || w.beyond_reason == "settling" || w.beyond_reason == "input";
       // A coarse output step's rounding bias is a function of the input (noise_model.h, output_step), and an input
       // the temperature carries slowly through the steps turns it into a slow oscillation of the means: a line or
       // a jump in the whole log's residual that is neither wander nor an effect outside the catalog (varied6

@@ -204,6 +204,17 @@ struct Options {
   // Measured (stop 44): true drifts 32–82 and true warm-ups 30–157 (the `unseen` suite); on the 884 other axes
   // asked in 475 cases of six suites, the line at most 16.3 and the settling at most 15.4 (docs/diagnosis.md § 5).
   double wander_trend_chi2 = 25.0;
+  // Nor is a raise whose innovations' spread grows with the inputs (noise_model.h, WholeLogWander::hetero_*: the
+  // rotation speed and the axis' own input magnitude, Koenker–Breusch–Pagan): a bias wander adds the same variance
+  // whatever the table does. Refused when the test's p is below wander_max_hetero_p, the variance where the fit puts
+  // it highest is wander_hetero_ratio × or more that where it puts it lowest (upper against lower quarter), and the
+  // raise is at least wander_hetero_min_raise × the dwells' level (its `ratio`): a smaller raise hides little, and
+  // a catalog effect fitted at a signal-to-noise of 10⁴ leaves a form mismatch at the 10⁻³ level that grows with
+  // its input too (`varied15` random-3 gyro.z: k3 read to 2.4e-9 of 9.9e-5, raise 1.7×). Measured (stop 46):
+  // docs/diagnosis.md § 5, "Whole-log wander".
+  double wander_max_hetero_p = 1e-10;
+  double wander_hetero_ratio = 4.0;
+  double wander_hetero_min_raise = 2.5;
   // Optional Allan curve of a simulation of the same campaign (from --sim), per axis.
   std::array<std::vector<AllanAccumulator::Point>, kNumAxes> sim_allan;
 };
@@ -355,7 +366,8 @@ struct DiagnosisResult {
                                       // or "periodic" (line_p < wander_max_line_p), or "sinusoid" (a sinusoid
                                       // in time beats the raise: Options::wander_sinusoid_margin), or "drift" /
                                       // "settling" (a line in time / a settling transient is significant beside
-                                      // the raise: Options::wander_trend_chi2)
+                                      // the raise: Options::wander_trend_chi2), or "input" (its innovations'
+                                      // spread grows with the inputs: Options::wander_max_hetero_p)
     PeriodicBias sinusoid;            // the best sinusoid, where the raise passed the other checks (else gain 0)
     TrendBias trend;                  // the drift and settling shapes, asked with the sinusoid (else gains 0)
     // A jump or line on an axis with a coarse output step: the final model's residual rms over the blocks, and

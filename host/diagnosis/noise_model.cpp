@@ -410,7 +410,7 @@ StochasticModel with_wander(const StochasticModel& m, const WholeLogWander* w, d
 std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
                                                double rw_prior_var, double duration_s, double ratio_max,
-                                               const std::vector<int>* seg_of) {
+                                               const std::vector<int>* seg_of, const Eigen::MatrixXd* covariates) {
   std::array<WholeLogWander, 3> out;
   const int n = static_cast<int>(rows.rows()), c = static_cast<int>(rows.cols()), P = c - 1;
   if (n <= P + 2 || !(duration_s > 0)) return out;
@@ -517,6 +517,33 @@ std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const s
     }
     const double d = best_step - best_spike;
     w.jump_persist_z = (d >= 0 ? 1.0 : -1.0) * std::sqrt(std::fabs(d));
+    // Koenker–Breusch–Pagan on e² (WholeLogWander::hetero_*): OLS of e² on [1, covariates], LM = n R².
+    if (covariates && covariates->rows() == n && covariates->cols() > 0) {
+      const int k = static_cast<int>(covariates->cols());
+      Eigen::MatrixXd Z(n, k + 1);
+      Z.col(0).setOnes();
+      Z.rightCols(k) = *covariates;
+      const Eigen::VectorXd e2 = e.array().square().matrix();
+      const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Z);
+      const Eigen::VectorXd fit = Z * qr.solve(e2);
+      const double mean = e2.mean();
+      const double tss = (e2.array() - mean).square().sum(), rss = (e2 - fit).squaredNorm();
+      const int rank = static_cast<int>(qr.rank());
+      if (tss > 0 && rank > 1) {
+        w.hetero_lm = static_cast<double>(n) * std::max(0.0, 1.0 - rss / tss);
+        w.hetero_p = chi2_sf(w.hetero_lm, rank - 1);
+        std::vector<int> order(static_cast<std::size_t>(n));
+        std::iota(order.begin(), order.end(), 0);
+        std::sort(order.begin(), order.end(), [&](int a, int b) { return fit[a] < fit[b]; });
+        const int q = std::max(1, n / 4);
+        double lo = 0, hi = 0;
+        for (int i = 0; i < q; ++i) {
+          lo += e2[order[static_cast<std::size_t>(i)]];
+          hi += e2[order[static_cast<std::size_t>(n - 1 - i)]];
+        }
+        w.hetero_ratio = lo > 0 ? hi / lo : std::numeric_limits<double>::infinity();
+      }
+    }
   };
   // Flicker: the bank's σ raised (a bank exists whenever the Allan fit had points).
   if (!m.bank_tau_s.empty() && flicker_from > 0) {

@@ -144,6 +144,15 @@ struct WholeLogWander {
   // line_power_spectrum).
   double line_p = 1;
   double line_period_s = 0;
+  // Does the spread of those innovations grow with the inputs (Koenker's studentised Breusch–Pagan test)? A bias
+  // wander adds the same variance to every block whatever the table does; a residual that the raise takes but
+  // that scales with the rate or the specific force (a scale factor that moves with time, an input-dependent term
+  // the catalog lacks) leaves the innovations small where the input is small and large where it is large. e_i²
+  // regressed on [1, covariates] (whole_log_wander's `covariates`, one row per block): hetero_lm = n R², χ² on
+  // k dof under a stationary wander, hetero_p its p-value, and hetero_ratio the fitted mean of e² over the blocks
+  // in the upper quarter of that fit against the lower quarter (an effect size: the LM grows with n for any fixed
+  // mismatch). 0 / 1 / 1 when no covariates were given.
+  double hetero_lm = 0, hetero_p = 1, hetero_ratio = 1;
 };
 
 // m with a whole-log raise applied: w's maximiser (flicker bank σ, or random-walk K with the flicker bank σ found
@@ -156,7 +165,8 @@ StochasticModel with_wander(const StochasticModel& m, const WholeLogWander* w, d
 std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const std::vector<double>& t_s,
                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
                                                double rw_prior_var, double duration_s, double ratio_max,
-                                               const std::vector<int>* seg_of = nullptr);
+                                               const std::vector<int>* seg_of = nullptr,
+                                               const Eigen::MatrixXd* covariates = nullptr);
 
 // A slow periodic bias against the raised wander that would take it (diagnose.cpp, the final model's wander).
 // Two or three cycles of a sinusoid in a whole log are what the random-walk line's whitening differences away:

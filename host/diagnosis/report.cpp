@@ -112,8 +112,17 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     std::string line = an + ": ";
     if (ue) {
       line += "not explained by any effect in the catalog";
-      if (!ue->signature.empty())
+      // "segment" leads only when no logged input comes within 80 % of it (residual_signature): the residual then
+      // steps from segment to segment, and "follows segment" would read as if the segment index were an input.
+      if (!ue->signature.empty() && ue->signature.front().input == "segment") {
+        line += "; the residual steps from segment to segment and follows no logged input closely (r = " +
+                fmt("%.2f", ue->signature.front().correlation) + " with its own segment means";
+        if (ue->signature.size() > 1)
+          line += "; nearest: " + ue->signature[1].input + ", r = " + fmt("%.2f", ue->signature[1].correlation);
+        line += ")";
+      } else if (!ue->signature.empty()) {
         line += "; the residual follows " + ue->signature.front().input + " (r = " + fmt("%.2f", ue->signature.front().correlation) + ")";
+      }
       line += " (held-out chi2/dof " + fmt("%.3g", ue->chi2_dof_after) +
               (ue->basis == "wander" ? ", within the threshold; named on the whole log's residual" : "") + ")";
       // Why it is not read as noise either (the whole log's wander, diagnose.h Options::wander_*).
@@ -129,6 +138,10 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
         line += "; not a stationary bias wander either: a sinusoid of period " + fmt("%.0f", w.sinusoid.period_s) +
                 " s explains the whole log's residual better (-2 log L gain " + fmt("%.0f", w.sinusoid.gain) + " against " +
                 fmt("%.0f", w.measured.gain) + " for a " + (w.kind == "flicker" ? "flicker" : "random walk") + ")";
+      else if (w.beyond_limit && w.beyond_reason == "input")
+        line += "; not a stationary bias wander either: what is left grows with the input (its spread " +
+                fmt("%.0f", w.measured.hetero_ratio) + "x larger where the rate or the axis' own input is largest; Breusch-Pagan LM " +
+                fmt("%.0f", w.measured.hetero_lm) + ")";
       else if (w.beyond_limit && (w.beyond_reason == "drift" || w.beyond_reason == "settling"))
         line += "; not a stationary bias wander either: the bias " +
                 (w.beyond_reason == "drift"
@@ -216,6 +229,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
                : r.wander[u].beyond_reason == "sinusoid" ? "a sinusoid of period " + fmt("%.0f", r.wander[u].sinusoid.period_s) + " s"
                : r.wander[u].beyond_reason == "drift"    ? "a linear drift of " + fmt("%.2g", r.wander[u].trend.slope_per_s * 3600.0) + " " + unit_of(a) + " per hour"
                : r.wander[u].beyond_reason == "settling" ? "a settling of time constant " + fmt("%.0f", r.wander[u].trend.settle_tau_s) + " s"
+               : r.wander[u].beyond_reason == "input"    ? std::string("a residual that grows with the input")
                                                        : std::string("a bias step")) +
               ", within the rounding (residual rms " + fmt("%.2g", r.wander[u].residual_rms) + ", under twice its sigma)";
     out.push_back(line);
@@ -367,6 +381,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"ratio", num(r.wander[u].measured.ratio)}, {"limit_ratio", num(r.wander[u].measured.limit_ratio)}, {"gain", num(r.wander[u].measured.gain)}, {"below_likelihood", r.wander[u].measured.below_likelihood}, {"gain_over_point", num(r.wander[u].measured.gain_seen)}, {"max_abs_z", num(r.wander[u].measured.max_abs_z)}, {"jump_persist_z", num(r.wander[u].measured.jump_persist_z)}, {"whiteness_p", num(r.wander[u].measured.whiteness_p)},
                                                  {"autocorr_sq", num(r.wander[u].measured.autocorr_sq)}, {"line_p", num(r.wander[u].measured.line_p)},
                                                  {"line_period_s", num(r.wander[u].measured.line_period_s)},
+                                                 {"hetero_lm", num(r.wander[u].measured.hetero_lm)}, {"hetero_p", num(r.wander[u].measured.hetero_p)}, {"hetero_ratio", num(r.wander[u].measured.hetero_ratio)},
                                                  {"sinusoid_gain", num(r.wander[u].sinusoid.gain)}, {"sinusoid_period_s", num(r.wander[u].sinusoid.period_s)},
                                                  {"drift_lr", num(r.wander[u].trend.gain)}, {"drift_per_h", num(r.wander[u].trend.slope_per_s * 3600.0)},
                                                  {"settling_lr", num(r.wander[u].trend.settle_gain)}, {"settling_tau_s", num(r.wander[u].trend.settle_tau_s)},

@@ -313,6 +313,38 @@ TEST(DiagnosisNoiseModel, WholeLogWanderFindsARandomWalkAndRejectsAStepAndASine)
   EXPECT_GE(raised, 2) << "the likelihood must want a raise for both (else the checks are not exercised)";
 }
 
+// A residual that grows with the input is not a bias wander (WholeLogWander::hetero_*, Options::wander_max_hetero_p):
+// a scale factor that moves with time over the log shows only on the blocks where the table turns, and the raised
+// walk that takes it leaves innovations small on the still blocks and large on the turning ones. A true walk adds
+// the same variance everywhere. Covariate: the block's rotation speed (every third block turns at 1-3 rad/s).
+TEST(DiagnosisNoiseModel, AWanderWhoseSpreadFollowsTheInputIsNotWander) {
+  const int n = 600;
+  const double dur_s = 5.0, N = 1e-3, K_true = 2e-4;
+  std::vector<double> t, d;
+  const StochasticModel m = faint_flicker_model(N, n, dur_s, t, d);
+  Eigen::MatrixXd cov(n, 1);
+  for (int i = 0; i < n; ++i) cov(i, 0) = i % 3 == 0 ? 1.0 + (i / 3) % 3 : 0.0;
+  auto best = [](const std::array<WholeLogWander, 3>& l) { return l[0].gain >= l[1].gain ? l[0] : l[1]; };
+  int checked = 0;
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    const Eigen::MatrixXd walk = walk_rows(n, dur_s, N, K_true, seed, [](int, double rw) { return rw; });
+    const WholeLogWander w = best(whole_log_wander(m, t, d, walk, 0.0, n * dur_s, 1e6, nullptr, &cov));
+    ASSERT_NE(w.kind, WholeLogWander::kNone) << seed;
+    EXPECT_GT(w.hetero_p, 1e-4) << seed << ": a walk's innovations do not follow the rotation speed";
+    EXPECT_LT(w.hetero_ratio, 2.0) << seed;
+    // A scale error of 2e-3 at the start to −2e-3 at the end, on the turning blocks only: ±4 mrad/s at 2 rad/s.
+    const Eigen::MatrixXd aged = walk_rows(n, dur_s, N, 0.0, seed, [&](int i, double) {
+      return 2e-3 * (1.0 - 2.0 * i / static_cast<double>(n)) * cov(i, 0);
+    });
+    const WholeLogWander a = best(whole_log_wander(m, t, d, aged, 0.0, n * dur_s, 1e6, nullptr, &cov));
+    if (a.kind == WholeLogWander::kNone) continue;
+    ++checked;
+    EXPECT_LT(a.hetero_p, 1e-10) << seed;
+    EXPECT_GT(a.hetero_ratio, 4.0) << seed;
+  }
+  EXPECT_GE(checked, 3) << "the likelihood must want a raise for the ageing scale (else the check is not exercised)";
+}
+
 // Two cycles of a slow sinusoid against a random walk (periodic_bias, Options::wander_sinusoid_margin). The walk's
 // whitening differences a slow sinusoid down to what its innovations hardly show, and the walk's likelihood gain
 // is large; the sinusoid fitted beside the columns under the model's own level gains far more. A true random walk
@@ -2269,5 +2301,51 @@ TEST(DiagnosisPipeline, CubicGSensitivityIsNotReadAsLinear) {
     EXPECT_FALSE(form_warning(r));
     EXPECT_TRUE(r.unexplained.empty());
   }
+}
+
+// The form check withdraws per axis when the effect stands on its other axes by itself (diagnose.cpp, functional
+// form): a true linear g-sensitivity of gyro.z beside the cubic on gyro.y keeps g_sensitivity, without its gyro.y
+// components, and gyro.y is still named (`unseen2` mixed-cross_w2 lost a true misalign_temp this way).
+TEST(DiagnosisPipeline, AFormThatFailsOnOneAxisIsWithdrawnThereOnly) {
+  const double g = 9.80665, amp_rad_s = 3e-3;
+  std::vector<Pose> poses;
+  for (int k = 0; k < 12; ++k) {
+    const double th = k * M_PI / 6.0;
+    poses.push_back({0.0, g * std::sin(th), g * std::cos(th)});
+    poses.push_back({g * std::sin(th), 0.0, g * std::cos(th)});
+  }
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> n01;
+  VectorSource src(static_pose_log(poses, 2, 8.0, [&](int, const Pose& f, double* y) {
+    const double fy = f[1] / g, fx = f[0] / g;
+    for (int j = 0; j < 3; ++j) y[j] = f[static_cast<std::size_t>(j)] + 2e-3 * n01(rng);
+    y[3] = 5e-4 * n01(rng);
+    y[4] = amp_rad_s * fy * fy * fy + 5e-4 * n01(rng);
+    y[5] = amp_rad_s * fx + 5e-4 * n01(rng);
+  }));
+  const DiagnosisResult r = diagnose(src, basic_model(), Options{});
+  bool selected = false;
+  for (const auto& st : r.selected) selected = selected || st.sensor + "." + st.effect == "gyro.g_sensitivity";
+  EXPECT_TRUE(selected) << "the true g-sensitivity of gyro.z was withdrawn with the stand-in on gyro.y";
+  bool kept_warning = false;
+  for (const auto& w : r.warnings) kept_warning = kept_warning || w.find("gyro.g_sensitivity kept on") != std::string::npos;
+  EXPECT_TRUE(kept_warning);
+  bool y_component = false, zx = false;
+  for (const auto& pe : r.final_params) {
+    y_component = y_component || pe.name.rfind("gyro.g_sensitivity.y", 0) == 0;
+    if (pe.name == "gyro.g_sensitivity.zx") {
+      zx = true;
+      EXPECT_NEAR(pe.value, amp_rad_s / g, 4.0 * pe.sigma);
+    }
+  }
+  EXPECT_FALSE(y_component) << "its components on gyro.y stand in for the cubic there";
+  EXPECT_TRUE(zx);
+  bool y_named = false, z_named = false;
+  for (const auto& u : r.unexplained) {
+    y_named = y_named || u.axis == "gyro.y";
+    z_named = z_named || u.axis == "gyro.z";
+  }
+  EXPECT_TRUE(y_named);
+  EXPECT_FALSE(z_named);
 }
 }  // namespace diagnosis_diagnosis_unit_test

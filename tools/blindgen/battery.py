@@ -7,7 +7,7 @@ diagnosis against the acceptance figures of issue 12 (docs/diagnosis.md, "Blind 
   battery.py --imuforge build/host/bin/imuforge --suite full --work /tmp/blind       # the benchmark
   battery.py ... --suite holdout   # stochastic + mixed cases at seeds no change was tuned on (stop 24)
   battery.py ... --suite varied    # every kind on another lab's schedule (blindgen size 'varied', stop 25)
-  battery.py ... --suite varied2 / varied3 / varied4 / varied5 / varied6 / varied7 / varied8 / varied9 / varied10 / varied11 / varied12 / varied13 / varied14   # the same schedule at fresh seeds (stops 26, 29, 30, 31, 36–42, 44, 45)
+  battery.py ... --suite varied2 / varied3 / varied4 / varied5 / varied6 / varied7 / varied8 / varied9 / varied10 / varied11 / varied12 / varied13 / varied14 / varied15   # the same schedule at fresh seeds (stops 26, 29, 30, 31, 36–42, 44–46)
   battery.py ... --source simulate      # same sensors through `imuforge simulate` (catalog effects only)
   battery.py ... --floors tools/blindgen/floors-smoke.json   # exit 1 when a figure falls below its floor
 
@@ -191,6 +191,10 @@ def suite(name):
         # the varied schedule at new seeds (16000+), added at stop 45 and run on the stop-44 binary before any
         # change: weighted to null sensors (stop 45 changes how a withheld segment is scored)
         return varied_fresh(16000, per_class_null=5, per_class_stoch=3, n_random=20, ooc_each=2)
+    if name == 'varied15':
+        # the varied schedule at new seeds (17000+), added at stop 46 and run on the stop-45 binary before any
+        # change: weighted to multi-effect recall (the figure still short) and to out-of-catalog cases
+        return varied_fresh(17000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2)
     if name == 'unseen':
         # out-of-catalog kinds written at stop 44 and first run on the stop-43 binary (a warm-up transient, a
         # linear ageing drift), which nothing in the diagnosis had been tuned on; stop 44's drift and settling
@@ -201,6 +205,15 @@ def suite(name):
                 cases.append(('ooc-%s-%d' % (kind, i), 'ooc', 15500 + 10 * k + i, {'ooc': kind, 'size': 'varied'}))
             for i in range(2):
                 cases.append(('mixed-%s-%d' % (kind, i), 'mixed', 15600 + 10 * k + i, {'ooc': kind, 'size': 'varied'}))
+        return cases
+    if name == 'unseen2':
+        # out-of-catalog kinds written at stop 46 and first run on the stop-45 binary (an accel bias odd in the
+        # rate, a gyro bias in another axis' rate squared, a bias step at a die temperature, a scale moving with
+        # time). Three alone and one beside catalog effects per kind, the varied schedule at seeds 17500+
+        for k, kind in enumerate(blindgen.OOC_KINDS_UNSEEN2):
+            for i in range(3):
+                cases.append(('ooc-%s-%d' % (kind, i), 'ooc', 17500 + 10 * k + i, {'ooc': kind, 'size': 'varied'}))
+            cases.append(('mixed-%s' % kind, 'mixed', 17600 + k, {'ooc': kind, 'size': 'varied'}))
         return cases
     if name != 'full':
         raise SystemExit('unknown suite ' + name)
@@ -567,7 +580,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'unseen'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'unseen', 'unseen2'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
