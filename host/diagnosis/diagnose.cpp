@@ -3337,12 +3337,23 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     }
   }
 
-  // ---- Plot data: residuals before/after against the variable the top effect depends on.
+  // ---- Plot data: residuals before/after against the variable the top effect depends on. With nothing selected and
+  // an axis named unexplained, that axis (the largest held-out χ²/dof) against the first input of its signature the
+  // blocks carry as a variable, at |r| ≥ 0.3 (time where none is; the axis' own input where its residual grows with
+  // it: the whole-log raise refused as "input"): the top-ranked candidate is then not significant, and its
+  // axis may be one at its noise (`unseen2` ooc-scale_age-0 plotted accel.y against the rate beside two gyro axes
+  // named unexplained).
   {
     std::string eff, sen;
+    const Unexplained* worst = nullptr;
+    for (const auto& u : R.unexplained)
+      if (!worst || u.chi2_dof_after > worst->chi2_dof_after) worst = &u;
     if (!R.selected.empty()) {
       eff = R.selected[0].effect;
       sen = R.selected[0].sensor;
+    } else if (worst) {
+      eff = "unexplained";
+      sen = worst->axis.substr(0, worst->axis.find('.'));
     } else if (!R.ranking.empty() && R.ranking[0].excitable) {
       eff = R.ranking[0].effect;
       sen = R.ranking[0].sensor;
@@ -3353,7 +3364,23 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       for (int a = a0; a < a0 + 3; ++a)
         if (R.gap_before.gap[static_cast<std::size_t>(a)] > R.gap_before.gap[static_cast<std::size_t>(axis)]) axis = a;
       std::string var = "input";
-      if (eff == "bias_temp" || eff == "scale_temp" || eff == "misalign_temp") var = "temp_C";
+      if (eff == "unexplained") {
+        for (int a = 0; a < kNumAxes; ++a)
+          if (axis_name(a) == worst->axis) axis = a;
+        var = "time_s";
+        for (const auto& e : worst->signature) {
+          const std::string& in = e.input;
+          if (in == "segment" || std::fabs(e.correlation) < 0.3) continue;
+          if (in == "T") var = "temp_C";
+          else if (in == "Tdot") var = "dTdt_C_s";
+          else if (in == "|w|" || in.rfind("w_", 0) == 0) var = "rate_rad_s";
+          else if (in.rfind("f_", 0) == 0 && in.size() >= 3) var = std::string("f_") + in[2];
+          else continue;
+          break;
+        }
+        // A residual whose spread grows with the input (the whole-log raise refused for it) against that input.
+        if (R.wander[static_cast<std::size_t>(axis)].beyond_reason == "input") var = "input";
+      } else if (eff == "bias_temp" || eff == "scale_temp" || eff == "misalign_temp") var = "temp_C";
       else if (eff == "temp_rate") var = "dTdt_C_s";
       else if (eff == "temp_hysteresis") var = "hysteresis_d";
       else if (eff == "size_effect" || eff == "timing") var = "rate_rad_s";
