@@ -2165,9 +2165,6 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       if (raises(l) && (!pick || l.gain > pick->gain)) pick = &l;
     return pick;
   };
-  // The whole log's wander of axis a under the model `ids` (both lines, noise_model.h), and why a line's maximiser
-  // is not wander: too large, a jump, or correlated innovations (a periodic bias); "" when it is. The one rule for
-  // the one-turn hysteresis check, the wander re-test and the final model's wander that diagnose() decides to carry.
   // What a bias wander's spread must not follow (WholeLogWander::hetero_*): per block, the rotation speed and the
   // magnitude of the axis' own input (|f_a| for an accelerometer axis, |ω_a| for a gyro axis).
   std::array<Eigen::MatrixXd, kNumAxes> hetero_cov;
@@ -2179,12 +2176,17 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       Z(static_cast<Eigen::Index>(b), 1) = std::fabs(a < 3 ? blocks[b].f[a] : blocks[b].w[a - 3]);
     }
   }
-  auto wander_lines = [&](int a, const std::set<ParamId>& ids) {
+  // The whole log's wander of axis a under the model `ids` (both lines, noise_model.h), and why a line's maximiser
+  // is not wander: too large, a jump, or correlated innovations (a periodic bias); "" when it is. The one rule for
+  // the one-turn hysteresis check, the wander re-test and the final model's wander that diagnose() decides to carry.
+  // input_check: also the spread's test against the inputs (WholeLogWander::hetero_*), which only the final model's
+  // raise is judged on.
+  auto wander_lines = [&](int a, const std::set<ParamId>& ids, bool input_check = false) {
     const auto ua = static_cast<std::size_t>(a);
     const AxisData& ad = ax[ua];
     const Fit f = fit_axis(ad, cols_for(ad, ids), -1);
     return whole_log_wander(R.stoch[ua], blk_t, blk_dur, design_rows(ad, f.kept, 0), R.rw_prior_var[ua], R.duration_s,
-                            std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg, &hetero_cov[ua]);
+                            std::max(4.0 * o.wander_max_factor, 1.15 * o.wander_rw_max_factor), &blk_seg, input_check ? &hetero_cov[ua] : nullptr);
   };
   auto wander_reason = [&](const std::array<WholeLogWander, 3>& lines, const WholeLogWander& l) -> const char* {
     const bool rw_likelier = raises(lines[1]) && (!raises(lines[0]) || lines[1].gain >= lines[0].gain);
@@ -2996,7 +2998,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     for (int a = 0; a < kNumAxes; ++a) {
       const auto ua = static_cast<std::size_t>(a);
       if (R.wander[ua].adopted) continue;
-      const std::array<WholeLogWander, 3> lines = wander_lines(a, cur);
+      const std::array<WholeLogWander, 3> lines = wander_lines(a, cur, true);
       auto reason = [&](const WholeLogWander& l) { return wander_reason(lines, l); };
       if (std::getenv("IMUFORGE_DIAG_TRACE"))
         for (const auto& l : lines)
