@@ -1124,14 +1124,14 @@ std::vector<int> cols_for(const AxisData& ad, const std::set<ParamId>& model_ids
   return sel;
 }
 
-// Weighted correlation of the held-out block residuals with simple functions of the logged inputs, best
-// first: what an out-of-catalog effect follows. period_s > 0 adds a sinusoid in time of that period (the
-// whole-log wander's sinusoid check found one); settle_tau_s > 0 a settling transient e^{−time/τ} (its settling
-// check found one).
-std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks, const std::vector<double>& r,
-                                               const std::vector<double>& pv, double period_s, double settle_tau_s) {
+using SignatureFunction = std::pair<std::string, std::function<double(const Block&)>>;
+
+// The simple functions of the logged inputs a residual signature ranks (residual_signature), by name; also what
+// the report's residual plot is drawn against when one of them leads (diagnose_core). pv: the blocks' variances,
+// the weights of the means that temperature and time are taken about.
+std::vector<SignatureFunction> signature_functions(const std::vector<Block>& blocks, const std::vector<double>& pv) {
   const char* ax = "xyz";
-  std::vector<std::pair<std::string, std::function<double(const Block&)>>> feats;
+  std::vector<SignatureFunction> feats;
   for (int k = 0; k < 3; ++k) feats.push_back({std::string("f_") + ax[k], [k](const Block& b) { return b.f[k]; }});
   for (int k = 0; k < 3; ++k)
     for (int l = k; l < 3; ++l)
@@ -1147,6 +1147,33 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
   // or field that grows with speed, whatever the direction). Even in ω like ω², but linear in speed: on a
   // campaign with several rate levels the two part.
   feats.push_back({"|w|", [](const Block& b) { return b.absw; }});
+  // The direction of rotation (0 on blocks turning slower than 1e-3 rad/s, which the Earth's rate never
+  // reaches): a bias that flips with it and no polynomial in ω has (a rate-dependent offset saturating within
+  // a few °/s).
+  for (int k = 0; k < 3; ++k)
+    feats.push_back({std::string("sign(w_") + ax[k] + ")", [k](const Block& b) { return std::fabs(b.w[k]) > 1e-3 ? (b.w[k] > 0 ? 1.0 : -1.0) : 0.0; }});
+  // Products of two kinds of input (of the block means: exact where one of them is constant over the block, as
+  // on static and constant-rate blocks): a rate read with a scale that depends on the specific force (ω_k f_l),
+  // a sensitivity that moves with temperature (f_k·T) or with time (an ageing scale: f_k·time, ω_k·time).
+  // Temperature and time are taken about their weighted means over the blocks, so that these are not the input
+  // itself again.
+  double sw0 = 0, sT = 0, st = 0, swT = 0;
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    const double w = 1.0 / pv[b];
+    sw0 += w;
+    st += w * blocks[b].t;
+    if (std::isfinite(blocks[b].T)) {
+      swT += w;
+      sT += w * blocks[b].T;
+    }
+  }
+  const double Tm = swT > 0 ? sT / swT : 0.0, tm = sw0 > 0 ? st / sw0 : 0.0;
+  for (int k = 0; k < 3; ++k)
+    for (int l = 0; l < 3; ++l)
+      feats.push_back({std::string("w_") + ax[k] + "*f_" + ax[l], [k, l](const Block& b) { return b.w[k] * b.f[l]; }});
+  for (int k = 0; k < 3; ++k) feats.push_back({std::string("f_") + ax[k] + "*T", [k, Tm](const Block& b) { return b.f[k] * (b.T - Tm); }});
+  for (int k = 0; k < 3; ++k) feats.push_back({std::string("f_") + ax[k] + "*time", [k, tm](const Block& b) { return b.f[k] * (b.t - tm); }});
+  for (int k = 0; k < 3; ++k) feats.push_back({std::string("w_") + ax[k] + "*time", [k, tm](const Block& b) { return b.w[k] * (b.t - tm); }});
   feats.push_back({"T", [](const Block& b) { return b.T; }});
   feats.push_back({"Tdot", [](const Block& b) { return b.Tdot; }});
   feats.push_back({"time", [](const Block& b) { return b.t; }});
@@ -1154,6 +1181,33 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
     feats.push_back({"sin(table angle " + std::to_string(k) + ")", [k](const Block& b) { return b.sin_a[k]; }});
     feats.push_back({"cos(table angle " + std::to_string(k) + ")", [k](const Block& b) { return b.cos_a[k]; }});
   }
+  // Twice each table angle: a two-lobed field (a motor's or a magnet's). From the block means of sin and cos:
+  // exact on a block at one angle, about 0 on a block that turns through whole revolutions, as the mean of
+  // sin 2θ is.
+  for (int k = 0; k < 3; ++k) {
+    feats.push_back({"sin(2 table angle " + std::to_string(k) + ")", [k](const Block& b) { return 2.0 * b.sin_a[k] * b.cos_a[k]; }});
+    feats.push_back({"cos(2 table angle " + std::to_string(k) + ")",
+                     [k](const Block& b) { return b.cos_a[k] * b.cos_a[k] - b.sin_a[k] * b.sin_a[k]; }});
+  }
+  return feats;
+}
+
+// Weighted correlation of the held-out block residuals with simple functions of the logged inputs, best
+// first: what an out-of-catalog effect follows. period_s > 0 adds a sinusoid in time of that period (the
+// whole-log wander's sinusoid check found one); settle_tau_s > 0 a settling transient e^{−time/τ} (its settling
+// check found one).
+// X (blocks × model columns, before whitening; null: none) is the final model's design. Each function and the
+// residual are correlated after their projections on those columns are taken out (weights 1/pv): the
+// added-variable (partial) correlation. The residual has already lost that projection to the fit, so the raw
+// function compares it with something it can no longer contain: a bias that flips with the direction of
+// rotation, fitted by the scale factor first, is left positive at low rates and negative at high ones and read
+// r = −0.29 against ω³ and nothing against the direction (`unseen3` ooc-sign_rate-0); its direction, with the
+// scale's part taken out, reads it whole. A function the model contains (T, where bias_temp is in it) has
+// nothing left and drops out. "segment" is the projected residual's own segment means.
+std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks, const std::vector<double>& r,
+                                               const std::vector<double>& pv, double period_s, double settle_tau_s,
+                                               const Eigen::MatrixXd* X = nullptr) {
+  std::vector<SignatureFunction> feats = signature_functions(blocks, pv);
   // A sinusoid in time the whole log's residual was found to carry (periodic_bias), at its best phase: the phase
   // fitted here to these residuals by weighted least squares, so the correlation is that fit's multiple r.
   if (period_s > 0) {
@@ -1179,11 +1233,36 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
     std::snprintf(name, sizeof name, "exp(-time / %.0f s)", settle_tau_s);
     feats.push_back({name, [settle_tau_s, t_first](const Block& b) { return std::exp(-(b.t - t_first) / settle_tau_s); }});
   }
+  // The projection off X: with G = Xᵀ W X (W = diag 1/pv), a function x keeps x − X G⁻¹ Xᵀ W x. Columns without weight (a parameter the blocks do not excite) are dropped
+  // by the rank-revealing solve. O(B·P² + P³) once, O(B·P) per function.
+  const int B = static_cast<int>(blocks.size());
+  const bool project = X && X->rows() == B && X->cols() > 0;
+  Eigen::MatrixXd Xw;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;
+  if (project) {
+    Xw = *X;
+    for (int b = 0; b < B; ++b) Xw.row(b) /= std::sqrt(pv[static_cast<std::size_t>(b)]);
+    qr.compute(Xw);
+  }
+  // The residual is projected too, so the correlation is the added-variable one (Frisch–Waugh–Lovell: the
+  // function's coefficient beside the model's columns, on the residual). The held-out residual is not the
+  // in-sample one: each fold's fit leaves its own share of the model's columns in it, which the raw residual
+  // would compare with the projected function as misfit. Measured (stop 47): with the function alone projected,
+  // `varied16` mixed-heading read sin(table angle 2) at r = 0.58, behind "segment"; with both, 0.79, first;
+  // `varied15` mixed-bias_step read time 0.65 against 0.82.
+  std::vector<double> rr(r);
+  if (project) {
+    Eigen::VectorXd ys(B);
+    for (int b = 0; b < B; ++b) ys[b] = r[static_cast<std::size_t>(b)] / std::sqrt(pv[static_cast<std::size_t>(b)]);
+    const Eigen::VectorXd cr = qr.solve(ys);
+    const Eigen::VectorXd pr = *X * cr;
+    for (int b = 0; b < B; ++b) rr[static_cast<std::size_t>(b)] -= pr[b];
+  }
   // "segment": the residual's own per-segment mean (a constant per segment that no input explains).
   std::map<int, std::pair<double, double>> seg;
   for (std::size_t b = 0; b < blocks.size(); ++b) {
     auto& e = seg[blocks[b].unit];
-    e.first += r[b] / pv[b];
+    e.first += rr[b] / pv[b];
     e.second += 1.0 / pv[b];
   }
   feats.push_back({"segment", [&seg](const Block& b) {
@@ -1191,26 +1270,47 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
                      return e.first / e.second;
                    }});
   std::vector<SignatureEntry> out;
+  Eigen::VectorXd xv(B);
   for (const auto& [name, fn] : feats) {
+    std::vector<char> ok(static_cast<std::size_t>(B), 0);
+    for (int b = 0; b < B; ++b) {
+      xv[b] = fn(blocks[static_cast<std::size_t>(b)]);
+      ok[static_cast<std::size_t>(b)] = std::isfinite(xv[b]);
+      if (!ok[static_cast<std::size_t>(b)]) xv[b] = 0.0;
+    }
+    // A function missing on some blocks (a table angle logged on part of the log) is correlated raw over the
+    // blocks that have it: the projection needs it on every block.
+    if (project && name != "segment" && std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; })) {
+      Eigen::VectorXd xs(B);
+      for (int b = 0; b < B; ++b) xs[b] = xv[b] / std::sqrt(pv[static_cast<std::size_t>(b)]);
+      const Eigen::VectorXd c = qr.solve(xs);
+      const Eigen::VectorXd p = *X * c;
+      const double before = xs.squaredNorm();
+      xv -= p;
+      // A function the model holds (nothing but rounding left of it) is not a signature.
+      double after = 0;
+      for (int b = 0; b < B; ++b) after += xv[b] * xv[b] / pv[static_cast<std::size_t>(b)];
+      if (!(after > 1e-10 * before)) continue;
+    }
     double sw = 0, sx = 0, sy = 0;
-    for (std::size_t b = 0; b < blocks.size(); ++b) {
-      const double x = fn(blocks[b]);
-      if (!std::isfinite(x)) continue;
-      const double w = 1.0 / pv[b];
+    for (int b = 0; b < B; ++b) {
+      if (!ok[static_cast<std::size_t>(b)]) continue;
+      const double x = xv[b];
+      const double w = 1.0 / pv[static_cast<std::size_t>(b)];
       sw += w;
       sx += w * x;
-      sy += w * r[b];
+      sy += w * rr[static_cast<std::size_t>(b)];
     }
     if (!(sw > 0)) continue;
     const double mx = sx / sw, my = sy / sw;
     double cxx = 0, cyy = 0, cxy = 0;
-    for (std::size_t b = 0; b < blocks.size(); ++b) {
-      const double x = fn(blocks[b]);
-      if (!std::isfinite(x)) continue;
-      const double w = 1.0 / pv[b];
+    for (int b = 0; b < B; ++b) {
+      if (!ok[static_cast<std::size_t>(b)]) continue;
+      const double x = xv[b];
+      const double w = 1.0 / pv[static_cast<std::size_t>(b)];
       cxx += w * (x - mx) * (x - mx);
-      cyy += w * (r[b] - my) * (r[b] - my);
-      cxy += w * (x - mx) * (r[b] - my);
+      cyy += w * (rr[static_cast<std::size_t>(b)] - my) * (rr[static_cast<std::size_t>(b)] - my);
+      cxy += w * (x - mx) * (rr[static_cast<std::size_t>(b)] - my);
     }
     if (!(cxx > 1e-30 * sw) || !(cyy > 0)) continue;
     out.push_back({name, cxy / std::sqrt(cxx * cyy)});
@@ -2947,8 +3047,11 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // settle_tau_s > 0: a settling transient).
   auto signature_of = [&](int a, double period_s, double settle_tau_s) {
     std::vector<double> r, pv;
-    heldout_blocks(ax[static_cast<std::size_t>(a)], cols_for(ax[static_cast<std::size_t>(a)], cur), folds, blocks, r, pv);
-    return residual_signature(blocks, r, pv, period_s, settle_tau_s);
+    const std::vector<int> cols = cols_for(ax[static_cast<std::size_t>(a)], cur);
+    heldout_blocks(ax[static_cast<std::size_t>(a)], cols, folds, blocks, r, pv);
+    Eigen::MatrixXd X(static_cast<Eigen::Index>(blocks.size()), static_cast<Eigen::Index>(cols.size()));
+    for (std::size_t i = 0; i < cols.size(); ++i) X.col(static_cast<Eigen::Index>(i)) = ax[static_cast<std::size_t>(a)].Xr.col(cols[i]);
+    return residual_signature(blocks, r, pv, period_s, settle_tau_s, &X);
   };
   for (int a = 0; a < kNumAxes; ++a) {
     if (!over(R.gap_after, a)) continue;
@@ -3373,6 +3476,15 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         for (const auto& e : worst->signature) {
           const std::string& in = e.input;
           if (in == "segment" || std::fabs(e.correlation) < 0.3) continue;
+          // A product of two inputs, the direction of rotation or a table angle's sin/cos: the residual against
+          // the function itself (signature_functions), as the signature correlated it.
+          if (in.find('*') != std::string::npos || in.rfind("sign(", 0) == 0 || in.rfind("sin(", 0) == 0 || in.rfind("cos(", 0) == 0) {
+            bool known = false;
+            for (const auto& sf : signature_functions(blocks, std::vector<double>(blocks.size(), 1.0))) known = known || sf.first == in;
+            if (!known) continue;
+            var = "sig:" + in;
+            break;
+          }
           if (in == "T") var = "temp_C";
           else if (in == "Tdot") var = "dTdt_C_s";
           else if (in == "|w|" || in.rfind("w_", 0) == 0) var = "rate_rad_s";
@@ -3402,11 +3514,17 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       }
       std::vector<double> ra, pva;
       heldout_blocks(ax[static_cast<std::size_t>(axis)], cols_for(ax[static_cast<std::size_t>(axis)], cur), folds, blocks, ra, pva);
-      R.plot_variable = var;
+      R.plot_variable = var.rfind("sig:", 0) == 0 ? var.substr(4) : var;
       R.plot_axis = axis_name(axis);
+      std::function<double(const Block&)> sig_fn;
+      if (var.rfind("sig:", 0) == 0) {
+        // The weights of the means T and time are taken about: the held-out variances, as in the signature.
+        for (auto& sf : signature_functions(blocks, pva))
+          if (sf.first == R.plot_variable) sig_fn = sf.second;
+      }
       for (int b = 0; b < B; ++b) {
         ScatterPoint sp;
-        sp.x = variable_of(blocks[static_cast<std::size_t>(b)], var, axis);
+        sp.x = sig_fn ? sig_fn(blocks[static_cast<std::size_t>(b)]) : variable_of(blocks[static_cast<std::size_t>(b)], var, axis);
         if (!std::isfinite(sp.x)) continue;
         sp.before = rb[static_cast<std::size_t>(axis)][static_cast<std::size_t>(b)];
         sp.after = ra[static_cast<std::size_t>(b)];

@@ -701,6 +701,21 @@ TEST(DiagnosisPipeline, OneAxisFarAboveItsNoiseDoesNotHideTheOthersEffects) {
   EXPECT_TRUE(gsens) << "the real g-sensitivity of gyro.x/y";
   EXPECT_TRUE(z_named) << "gyro.z named unexplained";
   for (const auto& u : r.unexplained) EXPECT_EQ(u.axis, "gyro.z");
+  // The g-sensitivity's components on gyro.z take part of the flipping bias there: flagged, not findings; those
+  // on the explained axes are not flagged (report.cpp on_unexplained_axis).
+  const auto j = to_json(r);
+  int flagged = 0, plain = 0;
+  for (const auto& p : j["parameters"]) {
+    if (p["name"].get<std::string>().rfind("gyro.g_sensitivity.", 0) != 0) continue;
+    const bool f = p.value("on_unexplained_axis", false);
+    EXPECT_EQ(f, p["axis"] == "gyro.z") << p["name"];
+    (f ? flagged : plain) += 1;
+  }
+  EXPECT_GT(flagged, 0);
+  EXPECT_GT(plain, 0);
+  const std::string text = summary_text(r);
+  EXPECT_NE(text.find("[gyro.z] = "), std::string::npos);
+  EXPECT_NE(text.find("(axis unexplained: takes part of the out-of-catalog residual there; not a finding)"), std::string::npos);
 }
 
 TEST(DiagnosisPipeline, PeriodicBiasBelowTheHeldOutThresholdIsStillNamed) {
@@ -2237,6 +2252,61 @@ TEST(DiagnosisPipeline, HysteresisThresholdIsProfiledNotAssumed) {
   const auto [sel5, pe5] = hysteresis_x(r5);
   ASSERT_TRUE(sel5);
   EXPECT_GT(std::fabs(pe5.value - h), 3.0 * pe5.sigma) << "at 0.5 °C, h is read short (measured 1.37e-4 ± 3.7e-6; profiled 2.007e-4 ± 3.4e-6)";
+}
+
+// A gyro bias that flips with the direction of rotation and saturates within a few °/s (no polynomial in ω of the
+// catalog has that shape): the axis is named unexplained and its signature reads the direction of rotation. The
+// signature correlates each input with the held-out residual after the model's own share of that input is taken
+// out (residual_signature): the scale factor takes the part of sign(ω) that is linear in ω, and the raw direction
+// no longer matches what is left (positive at the low rates, negative at the high ones). Hand-made log, independent
+// of host/sim: static tilts, then constant rates about the vertical axis (f along the spin axis), ±5 to ±150 °/s.
+TEST(DiagnosisPipeline, ABiasThatFlipsWithTheRotationIsNamedByItsDirection) {
+  const double g = 9.80665, c_rad_s = 2e-3, w0_rad_s = 2.0 * M_PI / 180.0, fs = 100.0;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n01;
+  std::vector<Sample> log;
+  int seg = 0;
+  auto run = [&](const Pose& f, const std::array<double, 3>& w, double dur_s) {
+    for (int i = 0; i < static_cast<int>(dur_s * fs); ++i) {
+      Sample s = referenced_sample(static_cast<double>(log.size()) / fs, seg);
+      for (int j = 0; j < 3; ++j) s.f[j] = f[static_cast<std::size_t>(j)], s.w[j] = w[static_cast<std::size_t>(j)];
+      for (int j = 0; j < 3; ++j) {
+        s.y[j] = s.f[j] + 2e-3 * n01(rng);
+        s.y[3 + j] = s.w[j] + 5e-4 * n01(rng);
+      }
+      s.y[5] += c_rad_s * (s.w[2] > 0 ? 1.0 : s.w[2] < 0 ? -1.0 : 0.0) * (1.0 - std::exp(-std::fabs(s.w[2]) / w0_rad_s));
+      log.push_back(s);
+    }
+    ++seg;
+  };
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const Pose& f : two_axis_tilts()) run(f, {0.0, 0.0, 0.0}, 6.0);
+    for (int k = 0; k < 3; ++k)
+      for (const double r_dps : {5.0, 20.0, 60.0, 150.0})
+        for (const double sgn : {1.0, -1.0}) {
+          Pose f{0.0, 0.0, 0.0};
+          std::array<double, 3> w{0.0, 0.0, 0.0};
+          f[static_cast<std::size_t>(k)] = g;
+          w[static_cast<std::size_t>(k)] = sgn * r_dps * M_PI / 180.0;
+          run(f, w, 8.0);
+        }
+  }
+  VectorSource src(log);
+  const DiagnosisResult r = diagnose(src, basic_model(), Options{});
+  const Unexplained* u = nullptr;
+  for (const auto& x : r.unexplained)
+    if (x.axis == "gyro.z") u = &x;
+  ASSERT_NE(u, nullptr) << "gyro.z must be named unexplained";
+  ASSERT_FALSE(u->signature.empty());
+  EXPECT_EQ(u->signature[0].input, "sign(w_z)");
+  EXPECT_GT(u->signature[0].correlation, 0.8);
+  // Nothing is selected, and the report's residual plot is drawn for the unexplained axis against the function
+  // itself.
+  EXPECT_TRUE(r.selected.empty());
+  EXPECT_EQ(r.plot_axis, "gyro.z");
+  EXPECT_EQ(r.plot_variable, "sign(w_z)");
+  EXPECT_FALSE(r.scatter.empty());
+  for (const auto& x : r.unexplained) EXPECT_EQ(x.axis.rfind("gyro.z", 0), 0u) << x.axis << " is at its noise";
 }
 
 // A gyro bias that goes with f_y³ (a cubic g-sensitivity: no catalog effect has it). On the ±1 g faces it equals

@@ -76,6 +76,17 @@ def varied_fresh(seed0, per_class_null, per_class_stoch, n_random, ooc_each):
     return cases
 
 
+def unseen_kinds(kinds, seed0):
+    """Three cases of each out-of-catalog kind alone and one beside catalog effects, the varied schedule: alone at
+    seeds seed0 + 10 k + i, beside at seed0 + 100 + k."""
+    cases = []
+    for k, kind in enumerate(kinds):
+        for i in range(3):
+            cases.append(('ooc-%s-%d' % (kind, i), 'ooc', seed0 + 10 * k + i, {'ooc': kind, 'size': 'varied'}))
+        cases.append(('mixed-%s' % kind, 'mixed', seed0 + 100 + k, {'ooc': kind, 'size': 'varied'}))
+    return cases
+
+
 def suite(name):
     """(case name, kind, seed, options) of a suite."""
     cases = []
@@ -210,11 +221,15 @@ def suite(name):
         # out-of-catalog kinds written at stop 46 and first run on the stop-45 binary (an accel bias odd in the
         # rate, a gyro bias in another axis' rate squared, a bias step at a die temperature, a scale moving with
         # time). Three alone and one beside catalog effects per kind, the varied schedule at seeds 17500+
-        for k, kind in enumerate(blindgen.OOC_KINDS_UNSEEN2):
-            for i in range(3):
-                cases.append(('ooc-%s-%d' % (kind, i), 'ooc', 17500 + 10 * k + i, {'ooc': kind, 'size': 'varied'}))
-            cases.append(('mixed-%s' % kind, 'mixed', 17600 + k, {'ooc': kind, 'size': 'varied'}))
-        return cases
+        return unseen_kinds(blindgen.OOC_KINDS_UNSEEN2, 17500)
+    if name == 'unseen3':
+        # out-of-catalog kinds written at stop 47 and first run on the stop-46 binary (a g-sensitivity moving with
+        # temperature, a g-dependent scale factor, a bias flipping with the rotation's direction). Three alone and
+        # one beside catalog effects per kind, the varied schedule at seeds 18500+
+        return unseen_kinds(blindgen.OOC_KINDS_UNSEEN3, 18500)
+    if name == 'varied16':
+        # the varied schedule at new seeds (18000+), added at stop 47 and run on the stop-46 binary before any change
+        return varied_fresh(18000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2)
     if name != 'full':
         raise SystemExit('unknown suite ' + name)
     for s in range(1, 51):
@@ -580,7 +595,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'unseen', 'unseen2'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'unseen', 'unseen2', 'unseen3'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')

@@ -525,6 +525,13 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T):
     if kind == 'scale_age':      # a scale factor that moves linearly with time over the run (settling of the sense
         u = f_imu if o['sensor'] == 'accel' else w_imu  # element after mounting), whatever the temperature does
         return o['per_unit'] * (t / o['duration_s'] - 0.5) * u[:, j]
+    if kind == 'g_temp':         # gyro g-sensitivity that moves with the die temperature (f_j (T - T0); the catalog
+        return o['coefficient'] * f_imu[:, j] * (T - o['T0_C'])  # has g_sensitivity f_j and gyro misalign_temp w_k T)
+    if kind == 'w_times_f':      # a g-dependent gyro scale factor: w_j f_j (the spin axis up reads a different
+        return o['coefficient'] * w_imu[:, j] * f_imu[:, j]  # scale from the spin axis down; no catalog term is w f)
+    if kind == 'sign_rate':      # a bias that flips with the direction of rotation and saturates within a few deg/s
+        w = w_imu[:, j]          # (odd and bounded: no polynomial in w of the catalog has that shape)
+        return o['amplitude'] * np.sign(w) * (1.0 - np.exp(-np.abs(w) / o['w0_rad_s']))
     if kind == 'g_cubed':        # gyro bias ~ f_j^3 (cubic g-sensitivity: odd in f like g_sensitivity, which it
         return o['coefficient'] * f_imu[:, j] ** 3  # equals on the +-1 g faces and departs from on the tilts)
     if kind == 'angle2':         # bias following twice the table heading (outer angle): a two-lobed field. Not the
@@ -958,6 +965,11 @@ OOC_KINDS_UNSEEN = ['warmup', 'drift']
 # the kinds above has (an accel bias odd in the rate, a gyro bias in another axis' rate squared, a bias step at a
 # temperature, a scale that moves with time)
 OOC_KINDS_UNSEEN2 = ['rate_odd', 'cross_w2', 'temp_step', 'scale_age']
+# written at stop 47 and first run on the stop-46 binary (suite 'unseen3'): gyro terms that mix two inputs or
+# have no polynomial shape (a g-sensitivity moving with temperature, a g-dependent scale factor, a bias that flips
+# with the direction of rotation)
+OOC_KINDS_UNSEEN3 = ['g_temp', 'w_times_f', 'sign_rate']
+OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate')
 
 
 def ooc_params(ooc_kind, amp, rng, scenario):
@@ -990,6 +1002,13 @@ def ooc_params(ooc_kind, amp, rng, scenario):
     if ooc_kind == 'scale_age':
         return dict(per_unit=None, amplitude=amp, duration_s=None,  # scaled per sensor, duration once known
                     _top_rate=math.radians(max(scenario['rates_dps'])))
+    if ooc_kind == 'g_temp':
+        lo, hi = min(scenario['plateaus_C']), max(scenario['plateaus_C'])
+        return dict(coefficient=amp / (9.80665 * max(0.5 * (hi - lo), 1.0)), T0_C=float(lo + rng.uniform(0.4, 0.6) * (hi - lo)))
+    if ooc_kind == 'w_times_f':
+        return dict(coefficient=amp / (9.80665 * math.radians(max(scenario['rates_dps']))))
+    if ooc_kind == 'sign_rate':
+        return dict(amplitude=amp, w0_rad_s=math.radians(float(rng.uniform(1.0, 4.0))))
     if ooc_kind == 'drift':
         return dict(amplitude=amp, duration_s=None)  # filled once the duration is known
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
@@ -1054,7 +1073,7 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
             axes = [a for a in axes if a.startswith('gyro')] or ['gyro.' + str(rng.choice(list(AX)))]
         if ooc_kind == 'abs_rate':
             axes = [a for a in axes if a.startswith('accel')] or ['accel.' + str(rng.choice(list(AX)))]
-        if ooc_kind in ('g_cubed', 'rate_memory', 'cross_w2'):
+        if ooc_kind in OOC_GYRO_ONLY:
             axes = [a for a in axes if a.startswith('gyro')] or ['gyro.' + str(rng.choice(list(AX)))]
         if ooc_kind == 'rate_odd':
             axes = [a for a in axes if a.startswith('accel')] or ['accel.' + str(rng.choice(list(AX)))]
@@ -1073,7 +1092,7 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
             sensor['effects'][str(key)] = draw_effect(rng, str(key), cls, g2_squares=g2_squares)
         ooc_kind = ooc_kind or str(rng.choice(OOC_KINDS))
         ax = str(rng.choice(STOCH_AXES))
-        if ooc_kind in ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2'):
+        if ooc_kind in OOC_GYRO_ONLY:
             ax = 'gyro.' + ax.split('.')[1]
         if ooc_kind in ('abs_rate', 'rate_odd'):
             ax = 'accel.' + ax.split('.')[1]
