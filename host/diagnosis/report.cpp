@@ -601,14 +601,15 @@ std::string scatter_svg(const DiagnosisResult& r) {
   if (ax.y1 <= ax.y0) { ax.y0 -= 1e-9; ax.y1 += 1e-9; }
   const double py = 0.05 * (ax.y1 - ax.y0), px = 0.05 * (ax.x1 - ax.x0);
   ax.y0 -= py; ax.y1 += py; ax.x0 -= px; ax.x1 += px;
+  ax.T = 34;  // the legend sits above the frame: inside, it covered the points in the top corner
   std::ostringstream s;
   s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << ax.W << "' height='" << ax.H << "' font-family='sans-serif' font-size='10'>";
   s << frame(ax, r.plot_variable, "held-out block residual, " + r.plot_axis);
   if (ax.y0 < 0 && ax.y1 > 0) s << "<line x1='" << ax.L << "' x2='" << ax.W - ax.Rm << "' y1='" << ax.ty(0) << "' y2='" << ax.ty(0) << "' stroke='#999'/>";
   for (const auto& p : r.scatter) s << "<circle cx='" << ax.tx(p.x) << "' cy='" << ax.ty(p.before) << "' r='2.5' fill='#d33' fill-opacity='0.6'/>";
   for (const auto& p : r.scatter) s << "<circle cx='" << ax.tx(p.x) << "' cy='" << ax.ty(p.after) << "' r='2.5' fill='#33d' fill-opacity='0.6'/>";
-  s << "<text x='" << ax.L + 10 << "' y='" << ax.T + 14 << "' fill='#d33'>before (model as given)</text>";
-  s << "<text x='" << ax.L + 10 << "' y='" << ax.T + 28 << "' fill='#33d'>after (selected effects added)</text>";
+  s << "<text x='" << ax.L << "' y='" << ax.T - 6 << "' fill='#d33'>&#9679; before (model as given)</text>";
+  s << "<text x='" << ax.L + 170 << "' y='" << ax.T - 6 << "' fill='#33d'>&#9679; after (selected effects added)</text>";
   s << "</svg>";
   return s.str();
 }
