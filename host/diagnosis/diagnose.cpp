@@ -1233,17 +1233,22 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
     std::snprintf(name, sizeof name, "exp(-time / %.0f s)", settle_tau_s);
     feats.push_back({name, [settle_tau_s, t_first](const Block& b) { return std::exp(-(b.t - t_first) / settle_tau_s); }});
   }
-  // The projection off X: with G = Xᵀ W X (W = diag 1/pv), a function x keeps x − X G⁻¹ Xᵀ W x. Columns without weight (a parameter the blocks do not excite) are dropped
-  // by the rank-revealing solve. O(B·P² + P³) once, O(B·P) per function.
+  // The projection off X: with G = Xᵀ W X (W = diag 1/pv), a vector v keeps v − X G⁻¹ Xᵀ W v. Columns without
+  // weight (a parameter the blocks do not excite) are dropped by the rank-revealing solve. O(B·P² + P³) once,
+  // O(B·P) per vector.
   const int B = static_cast<int>(blocks.size());
   const bool project = X && X->rows() == B && X->cols() > 0;
-  Eigen::MatrixXd Xw;
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;
   if (project) {
-    Xw = *X;
+    Eigen::MatrixXd Xw = *X;
     for (int b = 0; b < B; ++b) Xw.row(b) /= std::sqrt(pv[static_cast<std::size_t>(b)]);
     qr.compute(Xw);
   }
+  auto project_off = [&](Eigen::VectorXd& v) {
+    Eigen::VectorXd vs(B);
+    for (int b = 0; b < B; ++b) vs[b] = v[b] / std::sqrt(pv[static_cast<std::size_t>(b)]);
+    v -= *X * qr.solve(vs);
+  };
   // The residual is projected too, so the correlation is the added-variable one (Frisch–Waugh–Lovell: the
   // function's coefficient beside the model's columns, on the residual). The held-out residual is not the
   // in-sample one: each fold's fit leaves its own share of the model's columns in it, which the raw residual
@@ -1252,11 +1257,9 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
   // `varied15` mixed-bias_step read time 0.65 against 0.82.
   std::vector<double> rr(r);
   if (project) {
-    Eigen::VectorXd ys(B);
-    for (int b = 0; b < B; ++b) ys[b] = r[static_cast<std::size_t>(b)] / std::sqrt(pv[static_cast<std::size_t>(b)]);
-    const Eigen::VectorXd cr = qr.solve(ys);
-    const Eigen::VectorXd pr = *X * cr;
-    for (int b = 0; b < B; ++b) rr[static_cast<std::size_t>(b)] -= pr[b];
+    Eigen::VectorXd rv = Eigen::Map<const Eigen::VectorXd>(r.data(), B);
+    project_off(rv);
+    for (int b = 0; b < B; ++b) rr[static_cast<std::size_t>(b)] = rv[b];
   }
   // "segment": the residual's own per-segment mean (a constant per segment that no input explains).
   std::map<int, std::pair<double, double>> seg;
@@ -1281,16 +1284,15 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
     // A function missing on some blocks (a table angle logged on part of the log) is correlated raw over the
     // blocks that have it: the projection needs it on every block.
     if (project && name != "segment" && std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; })) {
-      Eigen::VectorXd xs(B);
-      for (int b = 0; b < B; ++b) xs[b] = xv[b] / std::sqrt(pv[static_cast<std::size_t>(b)]);
-      const Eigen::VectorXd c = qr.solve(xs);
-      const Eigen::VectorXd p = *X * c;
-      const double before = xs.squaredNorm();
-      xv -= p;
       // A function the model holds (nothing but rounding left of it) is not a signature.
-      double after = 0;
-      for (int b = 0; b < B; ++b) after += xv[b] * xv[b] / pv[static_cast<std::size_t>(b)];
-      if (!(after > 1e-10 * before)) continue;
+      auto wnorm2 = [&](const Eigen::VectorXd& v) {
+        double n2 = 0;
+        for (int b = 0; b < B; ++b) n2 += v[b] * v[b] / pv[static_cast<std::size_t>(b)];
+        return n2;
+      };
+      const double before = wnorm2(xv);
+      project_off(xv);
+      if (!(wnorm2(xv) > 1e-10 * before)) continue;
     }
     double sw = 0, sx = 0, sy = 0;
     for (int b = 0; b < B; ++b) {
@@ -3443,8 +3445,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   }
 
   // ---- Plot data: residuals before/after against the variable the top effect depends on. With nothing selected and
-  // an axis named unexplained, that axis (the largest held-out χ²/dof) against the first input of its signature the
-  // blocks carry as a variable, at |r| ≥ 0.3 (time where none is; the axis' own input where its residual grows with
+  // an axis named unexplained, that axis (the largest held-out χ²/dof) against the first function of its signature,
+  // at |r| ≥ 0.3 (time where none is; the axis' own input where its residual grows with
   // it: the whole-log raise refused as "input"): the top-ranked candidate is then not significant, and its
   // axis may be one at its noise (`unseen2` ooc-scale_age-0 plotted accel.y against the rate beside two gyro axes
   // named unexplained).
@@ -3468,32 +3470,32 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       int axis = a0;
       for (int a = a0; a < a0 + 3; ++a)
         if (R.gap_before.gap[static_cast<std::size_t>(a)] > R.gap_before.gap[static_cast<std::size_t>(axis)]) axis = a;
-      std::string var = "input";
-      if (eff == "unexplained") {
+      if (eff == "unexplained")
         for (int a = 0; a < kNumAxes; ++a)
           if (axis_name(a) == worst->axis) axis = a;
+      std::vector<double> ra, pva;
+      heldout_blocks(ax[static_cast<std::size_t>(axis)], cols_for(ax[static_cast<std::size_t>(axis)], cur), folds, blocks, ra, pva);
+      std::string var = "input";
+      std::function<double(const Block&)> sig_fn;
+      if (eff == "unexplained") {
+        // The first function of the signature at |r| >= 0.3 that signature_functions holds (weighted as in the
+        // signature): the residual against the function itself, as the signature correlated it. A sinusoid or
+        // settling fitted to this residual alone is not among them, nor is "segment".
         var = "time_s";
+        const std::vector<SignatureFunction> fns = signature_functions(blocks, pva);
         for (const auto& e : worst->signature) {
-          const std::string& in = e.input;
-          if (in == "segment" || std::fabs(e.correlation) < 0.3) continue;
-          // A product of two inputs, the direction of rotation or a table angle's sin/cos: the residual against
-          // the function itself (signature_functions), as the signature correlated it.
-          if (in.find('*') != std::string::npos || in.rfind("sign(", 0) == 0 || in.rfind("sin(", 0) == 0 || in.rfind("cos(", 0) == 0) {
-            bool known = false;
-            for (const auto& sf : signature_functions(blocks, std::vector<double>(blocks.size(), 1.0))) known = known || sf.first == in;
-            if (!known) continue;
-            var = "sig:" + in;
-            break;
-          }
-          if (in == "T") var = "temp_C";
-          else if (in == "Tdot") var = "dTdt_C_s";
-          else if (in == "|w|" || in.rfind("w_", 0) == 0) var = "rate_rad_s";
-          else if (in.rfind("f_", 0) == 0 && in.size() >= 3) var = std::string("f_") + in[2];
-          else continue;
+          if (e.input == "segment" || std::fabs(e.correlation) < 0.3) continue;
+          const auto it = std::find_if(fns.begin(), fns.end(), [&](const SignatureFunction& f) { return f.first == e.input; });
+          if (it == fns.end()) continue;
+          var = it->first;
+          sig_fn = it->second;
           break;
         }
         // A residual whose spread grows with the input (the whole-log raise refused for it) against that input.
-        if (R.wander[static_cast<std::size_t>(axis)].beyond_reason == "input") var = "input";
+        if (R.wander[static_cast<std::size_t>(axis)].beyond_reason == "input") {
+          var = "input";
+          sig_fn = nullptr;
+        }
       } else if (eff == "bias_temp" || eff == "scale_temp" || eff == "misalign_temp") var = "temp_C";
       else if (eff == "temp_rate") var = "dTdt_C_s";
       else if (eff == "temp_hysteresis") var = "hysteresis_d";
@@ -3512,16 +3514,8 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
               }
             }
       }
-      std::vector<double> ra, pva;
-      heldout_blocks(ax[static_cast<std::size_t>(axis)], cols_for(ax[static_cast<std::size_t>(axis)], cur), folds, blocks, ra, pva);
-      R.plot_variable = var.rfind("sig:", 0) == 0 ? var.substr(4) : var;
+      R.plot_variable = var;
       R.plot_axis = axis_name(axis);
-      std::function<double(const Block&)> sig_fn;
-      if (var.rfind("sig:", 0) == 0) {
-        // The weights of the means T and time are taken about: the held-out variances, as in the signature.
-        for (auto& sf : signature_functions(blocks, pva))
-          if (sf.first == R.plot_variable) sig_fn = sf.second;
-      }
       for (int b = 0; b < B; ++b) {
         ScatterPoint sp;
         sp.x = sig_fn ? sig_fn(blocks[static_cast<std::size_t>(b)]) : variable_of(blocks[static_cast<std::size_t>(b)], var, axis);

@@ -969,7 +969,9 @@ OOC_KINDS_UNSEEN2 = ['rate_odd', 'cross_w2', 'temp_step', 'scale_age']
 # have no polynomial shape (a g-sensitivity moving with temperature, a g-dependent scale factor, a bias that flips
 # with the direction of rotation)
 OOC_KINDS_UNSEEN3 = ['g_temp', 'w_times_f', 'sign_rate']
+# kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate')
+OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd')
 
 
 def ooc_params(ooc_kind, amp, rng, scenario):
@@ -1069,14 +1071,9 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
     elif kind == 'ooc':
         ooc_kind = ooc_kind or str(rng.choice(['heading', 'bias_step', 'w_cubed', 'abs_rate', 'periodic']))
         axes = list(rng.choice(STOCH_AXES, size=int(rng.integers(1, 3)), replace=False))
-        if ooc_kind == 'w_cubed':
-            axes = [a for a in axes if a.startswith('gyro')] or ['gyro.' + str(rng.choice(list(AX)))]
-        if ooc_kind == 'abs_rate':
-            axes = [a for a in axes if a.startswith('accel')] or ['accel.' + str(rng.choice(list(AX)))]
-        if ooc_kind in OOC_GYRO_ONLY:
-            axes = [a for a in axes if a.startswith('gyro')] or ['gyro.' + str(rng.choice(list(AX)))]
-        if ooc_kind == 'rate_odd':
-            axes = [a for a in axes if a.startswith('accel')] or ['accel.' + str(rng.choice(list(AX)))]
+        for sensor_only, kinds in (('gyro', OOC_GYRO_ONLY), ('accel', OOC_ACCEL_ONLY)):
+            if ooc_kind in kinds:
+                axes = [a for a in axes if a.startswith(sensor_only)] or [sensor_only + '.' + str(rng.choice(list(AX)))]
         for ax in axes:
             s, a = ax.split('.')
             amp = seg_noise(sensor, ax) * float(rng.uniform(20, 50)) * float(rng.choice([-1, 1]))
@@ -1094,7 +1091,7 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
         ax = str(rng.choice(STOCH_AXES))
         if ooc_kind in OOC_GYRO_ONLY:
             ax = 'gyro.' + ax.split('.')[1]
-        if ooc_kind in ('abs_rate', 'rate_odd'):
+        if ooc_kind in OOC_ACCEL_ONLY:
             ax = 'accel.' + ax.split('.')[1]
         s, a = ax.split('.')
         amp = seg_noise(sensor, ax) * float(rng.uniform(20, 50)) * float(rng.choice([-1, 1]))
