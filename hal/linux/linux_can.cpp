@@ -77,6 +77,9 @@ class VirtualPort final : public LinuxCanPort {
  public:
   ~VirtualPort() override {
     if (!announce_.empty()) ::unlink(announce_.c_str());
+    // The last endpoint to leave takes the bus's directory with it (rmdir fails while another endpoint's file
+    // is in it): a bus named per process (the demo's, the tests') would otherwise stay behind in /tmp.
+    if (!dir_.empty()) ::rmdir(dir_.c_str());
     if (fd_ >= 0) ::close(fd_);
   }
 
@@ -262,6 +265,12 @@ class VirtualPort final : public LinuxCanPort {
     const std::string tmp = dir_ + "/.tmp-" + std::to_string(port_);
     {
       std::ofstream f(tmp, std::ios::trunc);
+      if (!f.is_open() && errno == ENOENT) {
+        // The last endpoint before this one removed the bus's directory as it left (~VirtualPort) between
+        // open()'s mkdir and this write: make it again. Once the file is in it, no rmdir can take it.
+        ::mkdir(dir_.c_str(), 01777);
+        f.open(tmp, std::ios::trunc);
+      }
       f << ::getpid() << "\n";
       if (!filter_.empty()) {
         f << "accept";

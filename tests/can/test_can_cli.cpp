@@ -6,10 +6,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <stdexcept>
 #include <string>
+#include <system_error>
 #include <thread>
 
 #include "firmware/table/table.h"
@@ -39,14 +45,31 @@ CmdResult sh(const std::string& cmd) {
   return r;
 }
 
-std::string write_table(std::uint64_t serial, std::uint32_t seq) {
+// The test's own directory (virtual bus, tables, read-back), removed with its contents when the test ends.
+struct TempDir {
+  std::string path;
+  TempDir() {
+    char t[] = "/tmp/imuforge-can-cli-XXXXXX";
+    const char* d = ::mkdtemp(t);
+    if (!d) throw std::runtime_error(std::string("mkdtemp ") + t + ": " + std::strerror(errno));
+    path = d;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+};
+
+std::string write_table(const std::string& dir, std::uint64_t serial, std::uint32_t seq) {
   imuforge::fw::Table t;
   imuforge::fw::table_init_identity(&t, 0.0024f, 0.0005f, 16, 16);
   t.device_serial = serial;
   t.table_sequence = seq;
   std::uint8_t b[imuforge::fw::kTableMaxSize];
   const int n = imuforge::fw::table_serialize(&t, b, sizeof b);
-  const std::string path = ::testing::TempDir() + "can_cli_" + std::to_string(::getpid()) + "_" + std::to_string(seq) + ".bin";
+  const std::string path = dir + "/table_" + std::to_string(serial) + "_" + std::to_string(seq) + ".bin";
   std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(b), n);
   return path;
 }
@@ -55,7 +78,8 @@ TEST(CanCli, VimuProcessAndImuforgeCan) {
   if (::access(kTool.c_str(), X_OK) != 0 || ::access(kVimu.c_str(), X_OK) != 0) {
     GTEST_SKIP() << "imuforge or imuforge-vimu not built";
   }
-  const std::string dir = "/tmp/imuforge-vcan-cli-" + std::to_string(::getpid());
+  const TempDir work;
+  const std::string dir = work.path + "/vcan";
   ::setenv("IMUFORGE_VCAN_DIR", dir.c_str(), 1);
   const std::string bus = "virtual:cli";
   pid_t pid = 0;
@@ -70,19 +94,19 @@ TEST(CanCli, VimuProcessAndImuforgeCan) {
   EXPECT_NE(r.out.find("serial 31337"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("table none"), std::string::npos) << r.out;
 
-  const std::string t5 = write_table(31337, 5);
+  const std::string t5 = write_table(work.path, 31337, 5);
   r = sh(base + "flash --table " + t5 + " --dev-key");
   EXPECT_EQ(r.rc, 0) << r.out;
   r = sh(base + "flash --table " + t5 + " --dev-key");  // replay
   EXPECT_EQ(r.rc, 1) << r.out;
   EXPECT_NE(r.out.find("replayed"), std::string::npos) << r.out;
-  r = sh(base + "flash --table " + write_table(31337, 6) + " --key-hex " + std::string(64, 'a'));
+  r = sh(base + "flash --table " + write_table(work.path, 31337, 6) + " --key-hex " + std::string(64, 'a'));
   EXPECT_EQ(r.rc, 1) << r.out;
   EXPECT_NE(r.out.find("authorisation failed"), std::string::npos) << r.out;
-  r = sh(base + "flash --table " + write_table(4, 7) + " --dev-key");  // another device's table: bad input
+  r = sh(base + "flash --table " + write_table(work.path, 4, 7) + " --dev-key");  // another device's table: bad input
   EXPECT_EQ(r.rc, 2) << r.out;
 
-  const std::string back = ::testing::TempDir() + "can_cli_back.bin";
+  const std::string back = work.path + "/back.bin";
   r = sh(base + "read-table --out " + back);
   EXPECT_EQ(r.rc, 0) << r.out;
   std::ifstream a(t5, std::ios::binary), b(back, std::ios::binary);

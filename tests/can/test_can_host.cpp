@@ -7,7 +7,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <mutex>
+#include <system_error>
 #include <thread>
 
 #include "firmware/table/table.h"
@@ -25,13 +27,19 @@ namespace {
 
 constexpr std::uint64_t kSerial = 4242;
 
+// The virtual buses live in a directory of this process's own, removed when the program exits (registered after
+// `dir` is built, so it runs before `dir` is destroyed).
 std::string bus_name(const char* test) {
-  static bool env = [] {
-    const std::string dir = "/tmp/imuforge-vcan-test-" + std::to_string(::getpid());
-    ::setenv("IMUFORGE_VCAN_DIR", dir.c_str(), 1);
-    return true;
+  static const std::string dir = [] {
+    std::string d = "/tmp/imuforge-vcan-test-" + std::to_string(::getpid());
+    ::setenv("IMUFORGE_VCAN_DIR", d.c_str(), 1);
+    return d;
   }();
-  (void)env;
+  static const bool cleanup = std::atexit([] {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }) == 0;
+  (void)cleanup;
   return std::string("virtual:") + test;
 }
 

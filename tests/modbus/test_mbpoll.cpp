@@ -11,11 +11,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <regex>
+#include <stdexcept>
 #include <string>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -135,11 +140,23 @@ bool wait_value(const std::string& read_cmd, int ref, long long want, double tim
   return false;
 }
 
-std::string tmpdir() {
-  char t[] = "/tmp/imuforge-modbus-XXXXXX";
-  const char* d = mkdtemp(t);
-  return d ? d : "/tmp";
-}
+// A private directory for the pty links, removed with what is left in it when the test ends (pass or fail):
+// socat removes its links on SIGTERM, not the directory.
+struct TempDir {
+  std::string path;
+  TempDir() {
+    char t[] = "/tmp/imuforge-modbus-XXXXXX";
+    const char* d = mkdtemp(t);
+    if (!d) throw std::runtime_error(std::string("mkdtemp ") + t + ": " + std::strerror(errno));
+    path = d;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+};
 
 }  // namespace
 
@@ -199,7 +216,8 @@ TEST(ModbusMbpoll, RtuOnBenchSimPty) {
 }
 
 TEST(ModbusMbpoll, RtuThroughSocatPtyPair) {
-  const std::string d = tmpdir();
+  const TempDir dir;
+  const std::string& d = dir.path;
   Child s;
   s.start({"socat", "pty,raw,echo=0,link=" + d + "/server", "pty,raw,echo=0,link=" + d + "/client"});
   struct stat st;

@@ -6,6 +6,7 @@ The module is compared with the command-line program on the same files: same num
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -29,6 +30,7 @@ class Logs(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.dir = tempfile.mkdtemp(prefix="imuforge-py-")
+        cls.addClassCleanup(shutil.rmtree, cls.dir, ignore_errors=True)
         cls.csv = os.path.join(cls.dir, "sim.csv")
         cli("simulate", "--campaign", os.path.join(EX, "campaign-small.json"), "--sensor",
             os.path.join(EX, "sensor-consumer.json"), "--seed", "3", "--rate", "50", "--out", cls.csv)
@@ -97,6 +99,7 @@ class Logs(unittest.TestCase):
 class Navigate(unittest.TestCase):
     def test_same_figures_as_the_program(self):
         d = tempfile.mkdtemp(prefix="imuforge-py-nav-")
+        self.addCleanup(shutil.rmtree, d, ignore_errors=True)
         nav = imuforge.navigate(os.path.join(EX, "trajectory-urban.json"), os.path.join(EX, "sensor-consumer.json"),
                                 runs=4, seed=3, threads=1)
         names = [c["name"] for c in nav["candidates"]]
@@ -121,6 +124,7 @@ class Navigate(unittest.TestCase):
 class RealXsens(unittest.TestCase):
     def test_reference_free_table_and_kernel(self):
         d = tempfile.mkdtemp(prefix="imuforge-py-x-")
+        self.addCleanup(shutil.rmtree, d, ignore_errors=True)
         x = os.path.join(REAL, "xsens-mti-imutk")
         log_path = os.path.join(d, "xsens.h5")
         s = imuforge.import_recording("xsens-imutk", os.path.join(x, "xsens_acc.txt"), log_path,
