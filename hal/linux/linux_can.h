@@ -5,7 +5,8 @@
 //   socketcan:<ifname>   e.g. socketcan:vcan0, socketcan:can0
 //   virtual:<name>       UDP datagrams on 127.0.0.1 between any number of processes; each endpoint
 //                        binds an ephemeral port and announces it as a file <port> (content: pid) in
-//                        $IMUFORGE_VCAN_DIR/<name>/ (default /tmp/imuforge-vcan/<name>/); a frame is sent
+//                        $IMUFORGE_VCAN_DIR/<name>/ (default /tmp/imuforge-vcan/<name>/; the last endpoint to
+//                        close removes <name>/); a frame is sent
 //                        to every announced endpoint but itself whose acceptance filter (set_can_filter,
 //                        announced in the same file) takes its id. Same 16-byte frame layout as SocketCAN's
 //                        struct can_frame (can_id with the EFF flag bit 31, dlc, 3 pad, 8 data); CAN FD
