@@ -2741,21 +2741,6 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     share = rem.norm() / (cmax * c.norm());
     return std::isfinite(lr) && lr > 0 ? lr : 0.0;
   };
-  // Every selected effect, on every axis of its sensor: withdrawn when its own signal's square and cube are
-  // significant (kFormLr) AND account for at least half of the in-sample χ² excess left on that axis. A catalog
-  // effect whose form fits leaves nothing of the kind (measured on the 112 blind cases: LR ≤ 8 for every true
-  // effect); a stand-in leaves its remainder (cubic g-sensitivity read as g_sensitivity: LR 585 for an excess of
-  // 531, on an axis the effects piled on it had brought to held-out χ²/dof 1.8). Its axis then faces the
-  // unexplained test below with the stand-in gone.
-  //
-  // The check is per axis, and so is what it withdraws when the effect stands on the sensor's other axes by itself.
-  // A true effect of one axis pair beside an out-of-catalog term on another axis fits part of that term there
-  // through its own components on that axis, and fails the form there alone (`unseen2` mixed-cross_w2: a true
-  // gyro misalign_temp on y and z, and a gyro.x bias in ω_z², RESET LR 9173 on gyro.x; the whole effect was
-  // withdrawn and gyro.z left at held-out χ²/dof 4.2). Its components on the failing axes are withdrawn, and the
-  // effect is kept when the LR of its components on the others, under the likelihood's noise model, is
-  // significant at the selection's level (α over the candidates) and none of them is shared with a failing axis
-  // (timing's latency acts on all three). Otherwise it is withdrawn whole, as before.
   // The effect's parameters acting on axis a (catalog ids in that axis' columns).
   auto ids_on_axis = [&](Sensor s, Effect e, int a) {
     std::vector<ParamId> out;
@@ -2818,6 +2803,21 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
     R.withdrawn_by_check.push_back({effect_key(s, e), reason});
     drop.push_back({si, static_cast<int>(e)});
   };
+  // Every selected effect, on every axis of its sensor: withdrawn when its own signal's square and cube are
+  // significant (kFormLr) AND account for at least half of the in-sample χ² excess left on that axis. A catalog
+  // effect whose form fits leaves nothing of the kind (measured on the 112 blind cases: LR ≤ 8 for every true
+  // effect); a stand-in leaves its remainder (cubic g-sensitivity read as g_sensitivity: LR 585 for an excess of
+  // 531, on an axis the effects piled on it had brought to held-out χ²/dof 1.8). Its axis then faces the
+  // unexplained test below with the stand-in gone.
+  //
+  // The check is per axis, and so is what it withdraws when the effect stands on the sensor's other axes by itself.
+  // A true effect of one axis pair beside an out-of-catalog term on another axis fits part of that term there
+  // through its own components on that axis, and fails the form there alone (`unseen2` mixed-cross_w2: a true
+  // gyro misalign_temp on y and z, and a gyro.x bias in ω_z², RESET LR 9173 on gyro.x; the whole effect was
+  // withdrawn and gyro.z left at held-out χ²/dof 4.2). Its components on the failing axes are withdrawn, and the
+  // effect is kept when the LR of its components on the others, under the likelihood's noise model, is
+  // significant at the selection's level (α over the candidates) and none of them is shared with a failing axis
+  // (timing's latency acts on all three). Otherwise it is withdrawn whole, as before.
   {
     std::vector<std::pair<int, int>> form_drop;
     std::vector<ParamId> form_trim;
