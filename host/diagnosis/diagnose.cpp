@@ -3018,6 +3018,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // under the wander, gyro.y 4.07 on the dwells' noise, 0.98 under the wander). The effects such an axis keeps
   // have passed the re-test under that wander above.
   const Gap sel_gap = add_wander_chi2(gap_of(cur), cur);
+  bool withdrew = false;  // by the check below: the stand-in check then needs the gap again
   for (int si = 0; si < 2; ++si) {
     bool any_over = false;
     for (int a = 3 * si; a < 3 * si + 3; ++a) any_over = any_over || over(sel_gap, a);
@@ -3063,6 +3064,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       if (!explains) drop.push_back(ef);
     }
     for (const auto& ef : drop) withdraw(ef);
+    withdrew = withdrew || !drop.empty();
   }
   // What axis a's held-out residual under the current model follows (period_s > 0: a sinusoid in time as well;
   // settle_tau_s > 0: a settling transient). pv_out: the held-out blocks' variances it was weighted by.
@@ -3093,7 +3095,7 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
   // (withdraw_where_failed). Its axis then faces the verdict with it gone.
   {
     const double level = o.alpha / static_cast<double>(std::max<std::size_t>(1, candidates.size()));
-    const Gap now_gap = add_wander_chi2(gap_of(cur), cur);
+    const Gap now_gap = withdrew ? add_wander_chi2(gap_of(cur), cur) : sel_gap;
     std::vector<std::pair<int, int>> standin_drop;
     std::vector<ParamId> standin_trim;
     for (int si = 0; si < 2; ++si) {
