@@ -1336,6 +1336,19 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
   return out;
 }
 
+// What a residual follows, as functions of the blocks: the entries of its signature at |r| >= 0.3 that
+// signature_functions holds, in the signature's order ("segment", and a sinusoid or settling fitted to that one
+// residual, are not among them). fns: signature_functions under the signature's own weights.
+std::vector<const SignatureFunction*> signature_leaders(const std::vector<SignatureEntry>& sig, const std::vector<SignatureFunction>& fns) {
+  std::vector<const SignatureFunction*> out;
+  for (const SignatureEntry& se : sig) {
+    if (!(std::fabs(se.correlation) >= 0.3)) continue;
+    const auto it = std::find_if(fns.begin(), fns.end(), [&](const SignatureFunction& f) { return f.first == se.input; });
+    if (it != fns.end()) out.push_back(&*it);
+  }
+  return out;
+}
+
 // Effective number of distinct tests among K correlated columns (Li & Ji 2005): from the eigenvalues λ of their
 // correlation, Σ [λ ≥ 1] + (λ − ⌊λ⌋). 1 for identical columns, K for orthogonal ones. S: their information (or
 // any covariance-like matrix); columns without information are left out. O(K³).
@@ -3111,21 +3124,18 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
         std::vector<double> pva;
         const std::vector<SignatureEntry> sig = signature_of(a, 0.0, 0.0, &pva);
         const std::vector<SignatureFunction> fns = signature_functions(blocks, pva);
-        for (const SignatureEntry& se : sig) {
-          if (!(std::fabs(se.correlation) >= 0.3)) break;
-          if (se.input == "time") continue;
-          const auto it = std::find_if(fns.begin(), fns.end(), [&](const SignatureFunction& f) { return f.first == se.input; });
-          if (it == fns.end()) continue;
+        for (const SignatureFunction* fn : signature_leaders(sig, fns)) {
+          if (fn->first == "time") continue;
           Eigen::VectorXd g(B);
           bool finite = true;
           for (int b = 0; b < B; ++b) {
-            g[b] = it->second(blocks[static_cast<std::size_t>(b)]);
+            g[b] = fn->second(blocks[static_cast<std::size_t>(b)]);
             finite = finite && std::isfinite(g[b]);
           }
           const double gmax = g.cwiseAbs().maxCoeff();
           if (!finite || !(gmax > 0)) continue;
           gcol[static_cast<std::size_t>(a - 3 * si)] = g / gmax;
-          gname[static_cast<std::size_t>(a - 3 * si)] = se.input;
+          gname[static_cast<std::size_t>(a - 3 * si)] = fn->first;
           break;
         }
       }
@@ -3605,18 +3615,14 @@ DiagnosisResult diagnose_core(SampleSource& src, const BaseModel& base, const Op
       std::string var = "input";
       std::function<double(const Block&)> sig_fn;
       if (eff == "unexplained") {
-        // The first function of the signature at |r| >= 0.3 that signature_functions holds (weighted as in the
-        // signature): the residual against the function itself, as the signature correlated it. A sinusoid or
-        // settling fitted to this residual alone is not among them, nor is "segment".
+        // The signature's first leader (signature_leaders, weighted as in the signature): the residual against the
+        // function itself, as the signature correlated it.
         var = "time_s";
         const std::vector<SignatureFunction> fns = signature_functions(blocks, pva);
-        for (const auto& e : worst->signature) {
-          if (e.input == "segment" || std::fabs(e.correlation) < 0.3) continue;
-          const auto it = std::find_if(fns.begin(), fns.end(), [&](const SignatureFunction& f) { return f.first == e.input; });
-          if (it == fns.end()) continue;
-          var = it->first;
-          sig_fn = it->second;
-          break;
+        const std::vector<const SignatureFunction*> leaders = signature_leaders(worst->signature, fns);
+        if (!leaders.empty()) {
+          var = leaders.front()->first;
+          sig_fn = leaders.front()->second;
         }
         // A residual whose spread grows with the input (the whole-log raise refused for it) against that input.
         if (R.wander[static_cast<std::size_t>(axis)].beyond_reason == "input") {

@@ -21,6 +21,7 @@
 
 #include "host/can/client.h"
 #include "host/vimu/virtual_imu.h"
+#include "tests/can/vcan_dir.h"
 
 using namespace imuforge;
 
@@ -43,12 +44,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "can_bench_vbus: units 1..63, rate_hz 1..2000, seconds > 0\n");
     return 2;
   }
-  const std::string dir = "/tmp/imuforge-vcan-bench-" + std::to_string(::getpid());
-  ::setenv("IMUFORGE_VCAN_DIR", dir.c_str(), 1);
   std::printf("| mode | units | rate Hz | window s | frames/s | samples/s | lost | bus dropped | CPU s per 1000 samples | load 1 min |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   for (bool fd : {false, true}) {
-    const std::string bus = std::string("virtual:bench-") + (fd ? "fd" : "classic");
+    const std::string bus = imuforge::testing::virtual_test_bus(std::string("bench-") + (fd ? "fd" : "classic"));
     std::vector<std::unique_ptr<vimu::VirtualImu>> imus;
     std::vector<std::unique_ptr<can::Client>> clients;
     for (int k = 0; k < units; ++k) {

@@ -6,19 +6,15 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <cerrno>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
-#include <filesystem>
 #include <fstream>
-#include <stdexcept>
 #include <string>
-#include <system_error>
 #include <thread>
 
 #include "firmware/table/table.h"
+#include "tests/can/vcan_dir.h"
+#include "tests/temp_dir.h"
 
 extern char** environ;  // POSIX: declared by no header
 
@@ -45,23 +41,6 @@ CmdResult sh(const std::string& cmd) {
   return r;
 }
 
-// The test's own directory (virtual bus, tables, read-back), removed with its contents when the test ends.
-struct TempDir {
-  std::string path;
-  TempDir() {
-    char t[] = "/tmp/imuforge-can-cli-XXXXXX";
-    const char* d = ::mkdtemp(t);
-    if (!d) throw std::runtime_error(std::string("mkdtemp ") + t + ": " + std::strerror(errno));
-    path = d;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-};
-
 std::string write_table(const std::string& dir, std::uint64_t serial, std::uint32_t seq) {
   imuforge::fw::Table t;
   imuforge::fw::table_init_identity(&t, 0.0024f, 0.0005f, 16, 16);
@@ -78,10 +57,10 @@ TEST(CanCli, VimuProcessAndImuforgeCan) {
   if (::access(kTool.c_str(), X_OK) != 0 || ::access(kVimu.c_str(), X_OK) != 0) {
     GTEST_SKIP() << "imuforge or imuforge-vimu not built";
   }
-  const TempDir work;
-  const std::string dir = work.path + "/vcan";
-  ::setenv("IMUFORGE_VCAN_DIR", dir.c_str(), 1);
-  const std::string bus = "virtual:cli";
+  // The tables and the read-back in a directory of the test's own; the bus in the program's (inherited by the
+  // imuforge-vimu and imuforge processes it starts).
+  const imuforge::testing::TempDir work("imuforge-can-cli-");
+  const std::string bus = imuforge::testing::virtual_test_bus("cli");
   pid_t pid = 0;
   const char* argv[] = {kVimu.c_str(), "--bus", bus.c_str(), "--node", "4", "--serial", "31337",
                         "--duration-s", "60", nullptr};

@@ -6,12 +6,9 @@
 
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
-#include <filesystem>
-#include <mutex>
 #include <random>
-#include <system_error>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -20,6 +17,7 @@
 #include "host/can/stream_decoder.h"
 #include "host/vimu/virtual_imu.h"
 #include "tests/can/node_harness.h"
+#include "tests/can/vcan_dir.h"
 
 // A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
 namespace can_test_can_fd_host {
@@ -29,21 +27,8 @@ using namespace std::chrono_literals;
 
 namespace {
 
-// The virtual buses live in a directory of this process's own, removed when the program exits (registered after
-// `dir` is built, so it runs before `dir` is destroyed).
-std::string bus_name(const char* test) {
-  static const std::string dir = [] {
-    std::string d = "/tmp/imuforge-vcan-test-fd-" + std::to_string(::getpid());
-    ::setenv("IMUFORGE_VCAN_DIR", d.c_str(), 1);
-    return d;
-  }();
-  static const bool cleanup = std::atexit([] {
-    std::error_code ec;
-    std::filesystem::remove_all(dir, ec);
-  }) == 0;
-  (void)cleanup;
-  return std::string("virtual:") + test;
-}
+// The virtual buses live in a directory of this program's own, removed when it exits.
+using imuforge::testing::virtual_test_bus;
 
 struct NodeRun {
   std::vector<can::StreamSample> samples;
@@ -282,7 +267,7 @@ TEST(CanFd, FrameFromBeforeTheStreamStartIsIgnored) {
 }
 
 TEST(CanFd, VirtualBusCarriesFdDatagramsBesideClassicOnes) {
-  const std::string bus = bus_name("fdbus");
+  const std::string bus = virtual_test_bus("fdbus");
   std::string err;
   auto rx = hal::open_can_port(bus, &err);
   ASSERT_TRUE(rx) << err;
@@ -327,7 +312,7 @@ TEST(CanFd, VirtualBusCarriesFdDatagramsBesideClassicOnes) {
 }
 
 TEST(CanFd, ClientStreamsFdFromTheVirtualImu) {
-  const std::string bus = bus_name("fdclient");
+  const std::string bus = virtual_test_bus("fdclient");
   vimu::VirtualImuConfig cfg;
   cfg.bus = bus;
   cfg.node_id = 3;
@@ -406,7 +391,7 @@ TEST(CanFd, ClientStreamsFdFromTheVirtualImu) {
 
   // A classic-only part refuses an FD stream with its own status, and says so in identify.
   cfg.can_fd = false;
-  cfg.bus = bus_name("fdclassic");
+  cfg.bus = virtual_test_bus("fdclassic");
   vimu::VirtualImu old(cfg);
   old.start();
   auto c2 = can::Client::connect(cfg.bus, 3, o);

@@ -7,15 +7,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
-#include <filesystem>
 #include <mutex>
-#include <system_error>
 #include <thread>
 
 #include "firmware/table/table.h"
 #include "host/can/client.h"
 #include "host/vimu/virtual_imu.h"
 #include "hal/linux/linux_can.h"
+#include "tests/can/vcan_dir.h"
 
 // A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
 namespace can_test_can_host {
@@ -27,21 +26,8 @@ namespace {
 
 constexpr std::uint64_t kSerial = 4242;
 
-// The virtual buses live in a directory of this process's own, removed when the program exits (registered after
-// `dir` is built, so it runs before `dir` is destroyed).
-std::string bus_name(const char* test) {
-  static const std::string dir = [] {
-    std::string d = "/tmp/imuforge-vcan-test-" + std::to_string(::getpid());
-    ::setenv("IMUFORGE_VCAN_DIR", d.c_str(), 1);
-    return d;
-  }();
-  static const bool cleanup = std::atexit([] {
-    std::error_code ec;
-    std::filesystem::remove_all(dir, ec);
-  }) == 0;
-  (void)cleanup;
-  return std::string("virtual:") + test;
-}
+// The virtual buses live in a directory of this program's own, removed when it exits.
+using imuforge::testing::virtual_test_bus;
 
 std::vector<std::uint8_t> table_for(std::uint64_t serial, std::uint32_t seq, float bias = 0.0f) {
   fw::Table t;
@@ -75,7 +61,7 @@ can::Client::Options fast_opts() {
 }
 
 TEST(CanHost, IdentifyFlashReadReboot) {
-  const std::string bus = bus_name("flash");
+  const std::string bus = virtual_test_bus("flash");
   vimu::VirtualImu imu(imu_config(bus));
   imu.start();
   auto c = can::Client::connect(bus, 3, fast_opts());
@@ -126,7 +112,7 @@ TEST(CanHost, IdentifyFlashReadReboot) {
 }
 
 TEST(CanHost, StreamCarriesTruthWithoutLoss) {
-  const std::string bus = bus_name("stream");
+  const std::string bus = virtual_test_bus("stream");
   auto cfg = imu_config(bus);
   cfg.truth = [](double t_s) {
     hal::ImuRawSample s;
@@ -209,7 +195,7 @@ TEST(CanHost, DecoderCountsLossDuplicatesReorder) {
 }
 
 TEST(CanHost, BusFaultsAreReportedAndTableStays) {
-  const std::string bus = bus_name("faults");
+  const std::string bus = virtual_test_bus("faults");
   vimu::VirtualImu imu(imu_config(bus));
   imu.start();
   auto c = can::Client::connect(bus, 3, fast_opts());
@@ -279,14 +265,14 @@ TEST(CanHost, DeadPeerAndBadSpecsAreClearErrors) {
   can::Client::Options o;
   o.timeout_ms = 100;
   o.retries = 1;
-  auto c = can::Client::connect(bus_name("nobody"), 9, o);
+  auto c = can::Client::connect(virtual_test_bus("nobody"), 9, o);
   const auto t0 = std::chrono::steady_clock::now();
   EXPECT_THROW(c->identify(), can::Error);
   EXPECT_LT(std::chrono::steady_clock::now() - t0, 5s);
   EXPECT_THROW(can::Client::connect("bogus", 1), can::Error);
   EXPECT_THROW(can::Client::connect("virtual:a/b", 1), can::Error);
   EXPECT_THROW(can::Client::connect("socketcan:nonexistent0", 1), can::Error);
-  EXPECT_THROW(can::Client::connect(bus_name("x"), 64), can::Error);
+  EXPECT_THROW(can::Client::connect(virtual_test_bus("x"), 64), can::Error);
   EXPECT_THROW(can::key_from_hex("zz"), std::invalid_argument);
 }
 
@@ -294,7 +280,7 @@ TEST(CanHost, DeadPeerAndBadSpecsAreClearErrors) {
 // announced filter does not take the id, an endpoint without a filter gets every frame, and the same id
 // in 11 and 29 bits are different frames.
 TEST(CanHost, VirtualBusAcceptanceFilterIsAppliedBySenders) {
-  const std::string bus = bus_name("filter");
+  const std::string bus = virtual_test_bus("filter");
   std::string err;
   auto filtered = hal::open_can_port(bus, &err);
   auto open_all = hal::open_can_port(bus, &err);

@@ -11,20 +11,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
-#include <filesystem>
 #include <regex>
-#include <stdexcept>
 #include <string>
-#include <system_error>
 #include <thread>
 #include <vector>
 
 #include "host/fixture/fixture.h"
+#include "tests/temp_dir.h"
 
 extern char** environ;  // POSIX: declared by no header
 
@@ -140,24 +136,6 @@ bool wait_value(const std::string& read_cmd, int ref, long long want, double tim
   return false;
 }
 
-// A private directory for the pty links, removed with what is left in it when the test ends (pass or fail):
-// socat removes its links on SIGTERM, not the directory.
-struct TempDir {
-  std::string path;
-  TempDir() {
-    char t[] = "/tmp/imuforge-modbus-XXXXXX";
-    const char* d = mkdtemp(t);
-    if (!d) throw std::runtime_error(std::string("mkdtemp ") + t + ": " + std::strerror(errno));
-    path = d;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-};
-
 }  // namespace
 
 TEST(ModbusMbpoll, TcpRegistersAsDocumented) {
@@ -216,7 +194,8 @@ TEST(ModbusMbpoll, RtuOnBenchSimPty) {
 }
 
 TEST(ModbusMbpoll, RtuThroughSocatPtyPair) {
-  const TempDir dir;
+  // The pty links in a directory of the test's own (socat removes its links on SIGTERM, not the directory).
+  const imuforge::testing::TempDir dir("imuforge-modbus-");
   const std::string& d = dir.path;
   Child s;
   s.start({"socat", "pty,raw,echo=0,link=" + d + "/server", "pty,raw,echo=0,link=" + d + "/client"});
