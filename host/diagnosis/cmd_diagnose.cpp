@@ -1,12 +1,14 @@
 // `imuforge diagnose`: where a model departs from real data, which catalog effect explains it, and how far
 // the held-out gap shrinks (docs/diagnosis.md).
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <set>
+#include <sstream>
 
 #include "host/app/command.h"
 #include "host/diagnosis/diagnose.h"
@@ -45,7 +47,11 @@ void keep_solver_identifiable(nlohmann::json& mj, const std::string& log_path, c
   // scaled null vector, as printed). The per-parameter flag (any component above 1e-3) is not used: in a
   // degenerate null space (timing's exact zeros beside another exact collinearity) the eigen-solver mixes in
   // weakly observable parameters at that level, and a size effect the solver does observe was left out.
-  for (std::size_t pass = 0; pass <= added.size(); ++pass) {
+  // An effect only some of whose components lie in those directions (scale_nonlinearity's k3·f³ = g²·f on the
+  // ±1 g faces, beside its k2·f², which the faces do observe) is emitted once without them ("components"), and
+  // left out whole only when its remaining components still appear in one.
+  std::set<std::string> cut;
+  for (std::size_t pass = 0; pass <= 2 * added.size(); ++pass) {
     const model::ModelSpec spec = model::model_spec_from_json(mj);
     io::LogReader log(log_path);
     solver::FixtureAccumulator acc(spec, log.meta());
@@ -64,37 +70,69 @@ void keep_solver_identifiable(nlohmann::json& mj, const std::string& log_path, c
       mj["_diagnosis"]["solver_rank_deficient"] = obs.unobservable;  // the base model's own, left as given
       break;
     }
+    // The parameter names a printed direction holds ("0.707*accel.scale.x - 0.707*accel.scale_nonlinearity.x.k3").
+    auto terms_of = [](const std::string& d) {
+      std::set<std::string> t;
+      std::istringstream is(d);
+      for (std::string tok; is >> tok;)
+        if (const auto star = tok.find('*'); star != std::string::npos) t.insert(tok.substr(star + 1));
+      return t;
+    };
     for (const std::string& key : drop) {
-      mj["effects"].erase(key);
-      nlohmann::json estimate = nlohmann::json::array();
-      for (const auto& pe : r.final_params)
-        if (effect_key_of(pe.name) == key) estimate.push_back({{"name", pe.name}, {"axis", pe.axis}, {"value", pe.value}, {"sigma", pe.sigma}});
+      std::vector<std::string> all, bad;  // the effect's parameters, and those in an unobservable direction
+      bool zero = true;                   // its regressor is zero on every row the solver reads
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        if (effect_key_of(names[i]) != key) continue;
+        all.push_back(names[i]);
+        if (ne.info(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(i)) > 0.0) zero = false;
+        bool in = false;
+        for (const std::string& d : obs.unobservable) in = in || terms_of(d).count(names[i]) > 0;
+        if (in) bad.push_back(names[i]);
+      }
       nlohmann::json dirs = nlohmann::json::array();
-      for (const std::string& d : obs.unobservable)
-        if (d.find(key + ".") != std::string::npos) dirs.push_back(d);
+      std::set<std::string> partner_set;  // the other parameters those directions hold
+      for (const std::string& d : obs.unobservable) {
+        if (d.find(key + ".") == std::string::npos) continue;
+        dirs.push_back(d);
+        for (const std::string& n : terms_of(d))
+          if (effect_key_of(n) != key) partner_set.insert(n);
+      }
+      std::string partners;
+      for (const auto& n : partner_set) partners += (partners.empty() ? "" : ", ") + n;
+      nlohmann::json estimate = nlohmann::json::array();
+      const bool part = !zero && !cut.count(key) && !bad.empty() && bad.size() < all.size();
+      for (const auto& pe : r.final_params)
+        if (effect_key_of(pe.name) == key && (!part || std::find(bad.begin(), bad.end(), pe.name) != bad.end()))
+          estimate.push_back({{"name", pe.name}, {"axis", pe.axis}, {"value", pe.value}, {"sigma", pe.sigma}});
+      if (part) {
+        nlohmann::json keep = nlohmann::json::array(), left = nlohmann::json::array();
+        for (const std::string& n : all)
+          (std::find(bad.begin(), bad.end(), n) == bad.end() ? keep : left).push_back(n.substr(key.size() + 1));
+        mj["effects"][key]["components"] = keep;
+        cut.insert(key);
+        notes.push_back({{"effect", key},
+                         {"components_left_out", left},
+                         {"reason", "unobservable for `imuforge solve` in fixture mode on this log: on the dwell rows it reads, "
+                                    "these components cannot be told apart from " +
+                                        (partners.empty() ? std::string("the effect's other components") : partners) +
+                                        "; the others are emitted"},
+                         {"unobservable", dirs},
+                         {"diagnosis_estimate", estimate}});
+        std::string ls;
+        for (const auto& c : left) ls += (ls.empty() ? "" : ", ") + c.get<std::string>();
+        std::fprintf(stderr, "imuforge diagnose: --emit-model: %s emitted without %s (not observable by the fixture solver on this log)\n",
+                     key.c_str(), ls.c_str());
+        continue;
+      }
+      mj["effects"].erase(key);
       // Why: a regressor that is zero on every row the solver reads (timing: u̇ = 0 on a dwell), or one that
       // is collinear there with other parameters (e.g. scale_nonlinearity's k3·f³ = g²·f on ±1 g faces).
-      bool all_zero = true;
-      for (std::size_t i = 0; i < names.size(); ++i)
-        if (effect_key_of(names[i]) == key && ne.info(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(i)) > 0.0) all_zero = false;
-      std::string reason;
-      if (all_zero) {
-        reason = "unobservable for `imuforge solve` in fixture mode on this log: it uses dwell rows only and takes u-dot = 0 "
-                 "there, so the effect's regressor is zero";
-      } else {
-        std::set<std::string> partners;
-        for (const auto& dj : dirs)
-          for (const std::string& n : names)
-            if (effect_key_of(n) != key && dj.get<std::string>().find(n) != std::string::npos) partners.insert(n);
-        reason = "unobservable for `imuforge solve` in fixture mode on this log: on the dwell rows it reads, the effect "
-                 "cannot be told apart from";
-        std::string sep = " ";
-        for (const auto& n : partners) {
-          reason += sep + n;
-          sep = ", ";
-        }
-        if (partners.empty()) reason += " itself (its own components are collinear)";
-      }
+      const std::string reason =
+          zero ? "unobservable for `imuforge solve` in fixture mode on this log: it uses dwell rows only and takes u-dot = 0 "
+                 "there, so the effect's regressor is zero"
+               : "unobservable for `imuforge solve` in fixture mode on this log: on the dwell rows it reads, the effect "
+                 "cannot be told apart from " +
+                     (partners.empty() ? std::string("itself (its own components are collinear)") : partners);
       notes.push_back({{"effect", key}, {"reason", reason}, {"unobservable", dirs}, {"diagnosis_estimate", estimate}});
       std::fprintf(stderr, "imuforge diagnose: --emit-model: %s left out (not observable by the fixture solver on this log)\n",
                    key.c_str());
@@ -238,6 +276,16 @@ int run_diagnose(int argc, char** argv) {
         const std::string key = st.sensor + "." + st.effect;
         if (!mj["effects"].contains(key)) added.insert(key);
         mj["effects"][key] = nlohmann::json::object();
+        // The components of the diagnosis's final fit: an effect whose components on one axis were withdrawn
+        // (a stand-in there for an out-of-catalog function, "kept on …" in the warnings) is emitted without
+        // them, so the solver does not fit that function with them again.
+        if (!added.count(key)) continue;
+        std::set<std::string> comps;
+        for (const auto& pe : r.final_params)
+          if (effect_key_of(pe.name) == key) comps.insert(pe.name.substr(key.size() + 1, pe.name.find('@') - key.size() - 1));
+        nlohmann::json one = {{"format", "imuforge-model"}, {"version", 1}, {"effects", {{key, nlohmann::json::object()}}}};
+        const std::size_t all = model::model_spec_from_json(one).parameters().size();
+        if (!comps.empty() && comps.size() < all) mj["effects"][key]["components"] = comps;
       }
       mj["name"] = mj.value("name", std::string("model")) + "+diagnosis";
       // The threshold the diagnosis built temp_hysteresis's d(t) at, so the solver builds the same one.

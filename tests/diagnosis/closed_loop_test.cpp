@@ -20,8 +20,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <set>
 
+#include "host/io/log.h"
 #include "tests/diagnosis/sim_helpers.h"
 
 // A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
@@ -278,8 +280,85 @@ TEST(DiagnosisClosedLoop, LeftOutEffectsAreExactlyTheUnobservableOnes) {
     const std::string why = n["reason"];
     if (e.find(".timing") != std::string::npos) EXPECT_NE(why.find("u-dot = 0"), std::string::npos) << why;
     if (e == "accel.scale_nonlinearity") EXPECT_NE(why.find("accel.scale."), std::string::npos) << why;
+    // Only some components unobservable (k3·f³ = g²·f beside k2·f², which the faces observe): the effect is
+    // emitted without them, and the solve above observes what is left.
+    if (n.contains("components_left_out")) {
+      ASSERT_TRUE(m["effects"].contains(e)) << e << ": components left out, yet the effect is gone";
+      const json& kept = m["effects"][e]["components"];
+      EXPECT_FALSE(kept.empty()) << e;
+      for (const auto& c : n["components_left_out"])
+        EXPECT_EQ(std::find(kept.begin(), kept.end(), c), kept.end()) << e << "." << c.get<std::string>() << " left out and emitted";
+      for (const auto& c : n["components_left_out"])
+        EXPECT_NE(n["unobservable"].dump().find(e + "." + c.get<std::string>()), std::string::npos) << c << ": in no direction";
+    } else {
+      EXPECT_FALSE(m["effects"].contains(e)) << e << " noted as left out, yet emitted";
+    }
   }
   EXPECT_GE(left_out, 1) << "the timing effects at least cannot be observed on dwells: " << m["_diagnosis"].dump();
+  if (!std::getenv("KEEP")) fs::remove_all(dir);
+}
+
+// An effect whose components on one axis were withdrawn (a stand-in there for an out-of-catalog function) is
+// emitted without them. The log of DiagnosisPipeline.AFormThatFailsOnOneAxisIsWithdrawnThereOnly, written as a
+// file: gyro.z carries a true g-sensitivity in f_x, gyro.y a bias in f_y³ that the g-sensitivity's y
+// components would stand in for. Emitted whole, the solve fitted the cubic with them again.
+TEST(DiagnosisClosedLoop, ComponentsWithdrawnOnOneAxisAreNotEmitted) {
+  const fs::path dir = fs::temp_directory_path() / ("imuforge-closed-loop-trim-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const double g = 9.80665, amp_rad_s = 3e-3;
+  imuforge::io::LogMeta meta;
+  meta.sample_rate_hz = 100.0;
+  meta.accel_lsb_mps2 = 1e-6;
+  meta.gyro_lsb_rad_s = 1e-7;
+  meta.accel_bits = meta.gyro_bits = 32;
+  meta.gravity_mps2 = g;
+  const std::string log = (dir / "form.bin").string();
+  {
+    imuforge::io::LogWriter w(log, meta);
+    std::mt19937_64 rng(11);
+    std::normal_distribution<double> n01;
+    int seg = 0, n = 0;
+    for (int pass = 0; pass < 2; ++pass)
+      for (int k = 0; k < 24; ++k, ++seg) {
+        const double th = (k / 2) * M_PI / 6.0;
+        const double f[3] = {k % 2 ? g * std::sin(th) : 0.0, k % 2 ? 0.0 : g * std::sin(th), g * std::cos(th)};
+        for (int i = 0; i < 800; ++i, ++n) {
+          imuforge::io::LogRow row;
+          row.t_s = n / 100.0;
+          row.segment = seg;
+          row.temp_C = 25.0;
+          row.has_ref = true;
+          double y[6];
+          for (int j = 0; j < 3; ++j) row.f_ref[j] = f[j], y[j] = f[j] + 2e-3 * n01(rng);
+          y[3] = 5e-4 * n01(rng);
+          y[4] = amp_rad_s * std::pow(f[1] / g, 3) + 5e-4 * n01(rng);
+          y[5] = amp_rad_s * f[0] / g + 5e-4 * n01(rng);
+          for (int j = 0; j < 6; ++j) row.raw[j] = static_cast<std::int32_t>(std::lround(y[j] / (j < 3 ? meta.accel_lsb_mps2 : meta.gyro_lsb_rad_s)));
+          w.write(row);
+        }
+      }
+    w.close();
+  }
+  // Static poses: the gyro's scale and misalignment are not excited, and the solver refuses a model with them.
+  const std::string base = (dir / "model.json").string();
+  std::ofstream(base) << json{{"format", "imuforge-model"}, {"version", 1}, {"name", "static"},
+                              {"effects", {"accel.bias", "accel.scale", "accel.misalign", "gyro.bias"}}}
+                             .dump(1);
+  const fs::path ext = dir / "extended.json";
+  ASSERT_EQ(run("diagnose --log " + log + " --model " + base + " --out " + (dir / "diag").string() + " --emit-model " + ext.string(),
+                dir / "diag.txt"),
+            0);
+  const json m = read(ext);
+  ASSERT_TRUE(m["effects"].contains("gyro.g_sensitivity")) << m.dump(1);
+  const json& comps = m["effects"]["gyro.g_sensitivity"]["components"];
+  ASSERT_TRUE(comps.is_array()) << "the effect's y components were withdrawn, so not all of it is emitted: " << m.dump(1);
+  bool zx = false;
+  for (const auto& c : comps) {
+    EXPECT_NE(c.get<std::string>()[0], 'y') << c << ": withdrawn on gyro.y, yet emitted";
+    zx = zx || c == "zx";
+  }
+  EXPECT_TRUE(zx) << comps.dump();
+  EXPECT_EQ(run("solve --log " + log + " --model " + ext.string() + " --out " + (dir / "cal.json").string(), dir / "solve.txt"), 0);
   if (!std::getenv("KEEP")) fs::remove_all(dir);
 }
 }  // namespace diagnosis_closed_loop_test
