@@ -1,6 +1,6 @@
 // The diagnosis pipeline (docs/diagnosis.md): pass 0 (noise, reference), pass 1 (block means at the
 // possibly shifted time), the whitened per-axis design, folds, forward–backward selection, the
-// unexplained verdict, the final joint fit, cells and plot data. One piece, ~3,500 lines, because every
+// unexplained verdict, the final joint fit, cells and plot data. One piece, ~4,000 lines, because every
 // stage reads the same per-axis design and fold statistics (AxisData) and the time-shift iteration
 // re-runs the whole chain; splitting it would pass that state through a dozen signatures. The fits and
 // held-out scores themselves live in host/estimator (shared with the solver); the noise model in
