@@ -85,8 +85,20 @@ std::string outcome(const DiagnosisResult& r, const CandidateScore& c) {
   const std::string& sensor = c.sensor;
   const std::string& effect = c.effect;
   const std::string key = sensor + "." + effect;
+  // One of a pair the campaign cannot tell apart (DiagnosisResult::ambiguous): the table says so on both rows, so
+  // a reader does not take the chosen one for a finding the other was ruled out by.
   for (const auto& st : r.selected)
-    if (st.sensor == sensor && st.effect == effect) return st.from_reference_steps ? "selected (from the reference steps)" : "selected";
+    if (st.sensor == sensor && st.effect == effect) {
+      for (const auto& a : r.ambiguous)
+        if (a.chosen == key)
+          return "selected, ambiguous with " + a.alternative + " (larger AIC gain by " + fmt("%.1f", a.delta_aic) +
+                 "; the campaign does not tell them apart)";
+      return st.from_reference_steps ? "selected (from the reference steps)" : "selected";
+    }
+  for (const auto& a : r.ambiguous)
+    if (a.alternative == key)
+      return "not selected: ambiguous with " + a.chosen + ", chosen by a larger AIC gain by " + fmt("%.1f", a.delta_aic) +
+             " (the campaign does not tell them apart)";
   for (const auto& [k, why] : r.withdrawn_by_check)
     if (k == key) return "withdrawn: " + why;
   for (const auto& u : r.unexplained)

@@ -1483,6 +1483,14 @@ TEST(DiagnosisPipeline, AnAmbiguousPairIsJudgedOnTheComponentsTheDataNeed) {
       }
       std::printf("\n");
       EXPECT_LE(r.ambiguous.size(), 1u) << "one entry per pair";
+      // The ranking table says it on both rows.
+      for (const auto& am : r.ambiguous)
+        for (const auto& c : to_json(r)["ranking"]) {
+          const std::string key = c["sensor"].get<std::string>() + "." + c["effect"].get<std::string>();
+          const std::string oc = c["outcome"];
+          if (key == am.chosen) EXPECT_EQ(oc.rfind("selected, ambiguous with " + am.alternative, 0), 0u) << oc;
+          if (key == am.alternative) EXPECT_EQ(oc.rfind("not selected: ambiguous with " + am.chosen, 0), 0u) << oc;
+        }
     }
     if (true_nonlinear) EXPECT_GE(ambiguous, seeds / 2) << "the campaign is meant to leave the pair ambiguous (else the tie-break is not tested)";
     EXPECT_GE(right, seeds - 1) << truth;
