@@ -70,14 +70,14 @@ void keep_solver_identifiable(nlohmann::json& mj, const std::string& log_path, c
       mj["_diagnosis"]["solver_rank_deficient"] = obs.unobservable;  // the base model's own, left as given
       break;
     }
-    // The parameter names a printed direction holds ("0.707*accel.scale.x - 0.707*accel.scale_nonlinearity.x.k3").
-    auto terms_of = [](const std::string& d) {
-      std::set<std::string> t;
+    // The parameter names each printed direction holds ("0.707*accel.scale.x - 0.707*accel.scale_nonlinearity.x.k3").
+    std::vector<std::set<std::string>> dir_terms;
+    for (const std::string& d : obs.unobservable) {
+      std::set<std::string>& t = dir_terms.emplace_back();
       std::istringstream is(d);
       for (std::string tok; is >> tok;)
         if (const auto star = tok.find('*'); star != std::string::npos) t.insert(tok.substr(star + 1));
-      return t;
-    };
+    }
     for (const std::string& key : drop) {
       std::vector<std::string> all, bad;  // the effect's parameters, and those in an unobservable direction
       bool zero = true;                   // its regressor is zero on every row the solver reads
@@ -85,16 +85,15 @@ void keep_solver_identifiable(nlohmann::json& mj, const std::string& log_path, c
         if (effect_key_of(names[i]) != key) continue;
         all.push_back(names[i]);
         if (ne.info(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(i)) > 0.0) zero = false;
-        bool in = false;
-        for (const std::string& d : obs.unobservable) in = in || terms_of(d).count(names[i]) > 0;
-        if (in) bad.push_back(names[i]);
+        if (std::any_of(dir_terms.begin(), dir_terms.end(), [&](const std::set<std::string>& t) { return t.count(names[i]) > 0; }))
+          bad.push_back(names[i]);
       }
       nlohmann::json dirs = nlohmann::json::array();
       std::set<std::string> partner_set;  // the other parameters those directions hold
-      for (const std::string& d : obs.unobservable) {
-        if (d.find(key + ".") == std::string::npos) continue;
-        dirs.push_back(d);
-        for (const std::string& n : terms_of(d))
+      for (std::size_t k = 0; k < dir_terms.size(); ++k) {
+        if (obs.unobservable[k].find(key + ".") == std::string::npos) continue;
+        dirs.push_back(obs.unobservable[k]);
+        for (const std::string& n : dir_terms[k])
           if (effect_key_of(n) != key) partner_set.insert(n);
       }
       std::string partners;
