@@ -14,7 +14,11 @@
 #include "host/diagnosis/diagnose.h"
 #include "host/diagnosis/sources.h"
 #include "host/estimator/estimator.h"
+#include "host/io/campaign_file.h"
 #include "host/io/staged_file.h"
+#include "host/physics/campaign.h"
+#include "host/physics/earth.h"
+#include "host/physics/timeline.h"
 #include "host/poses/detect.h"
 #include "host/model/sensor_model.h"
 #include "host/solver/fixture.h"
@@ -150,6 +154,10 @@ int run_diagnose(int argc, char** argv) {
   app.add_option("--model", model_path, "model spec JSON in use (docs/formats.md), a cal.json with a \"model\", or 'basic'")->required();
   app.add_option("--sim", sim_path, "simulation log of the same campaign: its static Allan curve is the claimed noise, "
                                     "and it supplies references the real log lacks");
+  std::string campaign_path;
+  app.add_option("--campaign", campaign_path,
+                 "campaign the log was taken with: its table geometry lets the diagnosis estimate the table's axis tilts and "
+                 "encoder zeros with the base model and re-evaluate the reference at them (needs the log's table angles)");
   app.add_option("--sensor", sensor_path, "sensor model JSON: its white_noise densities are the claimed noise");
   app.add_option("--out", out_dir, "output folder (diagnosis.json, report.html)")->required();
   app.add_flag("--explain-poses", explain_poses,
@@ -196,6 +204,29 @@ int run_diagnose(int argc, char** argv) {
     }
 
     diagnosis::LogSource real(log_path);
+    if (!campaign_path.empty()) {
+      physics::Campaign c;
+      try {
+        c = io::load_campaign(campaign_path);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "imuforge diagnose: --campaign %s: %s\n", campaign_path.c_str(), e.what());
+        return app::exit_code_for(e);
+      }
+      opt.table.nominal = physics::geometry_from_campaign(c).nominal();
+      if (real.meta().table_axes != opt.table.nominal.n_axes) {
+        std::fprintf(stderr,
+                     "imuforge diagnose: --campaign %s: its table has %d axes but %s logs %d table angle columns (the table's "
+                     "axis errors need the reported angles of every axis)\n",
+                     campaign_path.c_str(), opt.table.nominal.n_axes, log_path.c_str(), real.meta().table_axes);
+        return app::kExitUsage;
+      }
+      physics::Site site;
+      site.latitude_deg = c.latitude_deg;
+      site.height_m = c.height_m;
+      opt.table.g_ned = physics::gravity_ned(site);
+      opt.table.wie_ned = physics::earth_rate_ned(site);
+      opt.table.known = true;
+    }
     std::unique_ptr<diagnosis::LogSource> sim;
     std::unique_ptr<diagnosis::PairedSource> paired;
     diagnosis::SampleSource* src = &real;
@@ -218,6 +249,10 @@ int run_diagnose(int argc, char** argv) {
     }
     std::unique_ptr<diagnosis::ReferenceFreeSource> rf;
     std::unique_ptr<diagnosis::ReferenceSegmentSource> segs;
+    if (opt.table.known && (mode == "reference-free" || !any_ref)) {
+      std::fprintf(stderr, "imuforge diagnose: --campaign needs a log with a fixture reference; %s is diagnosed reference-free\n", log_path.c_str());
+      return app::kExitUsage;
+    }
     if (mode == "reference-free" || (mode == "auto" && !any_ref)) {
       rf = std::make_unique<diagnosis::ReferenceFreeSource>(*src, real.meta().gravity_mps2, poses::DetectOptions{},
                                                             real.meta().accel_lsb_mps2, real.meta().gyro_lsb_rad_s,

@@ -26,6 +26,7 @@
 #include "host/diagnosis/stats.h"
 #include "host/model/catalog.h"
 #include "host/model/sensor_model.h"
+#include "host/physics/table.h"
 
 namespace imuforge::diagnosis {
 
@@ -53,9 +54,12 @@ struct Sample {
   double f[3] = {0, 0, 0};  // m/s², reference specific force (nominal frame)
   double w[3] = {0, 0, 0};  // rad/s, reference rate
   double y[6] = {0, 0, 0, 0, 0, 0};  // outputs, SI (m/s², rad/s)
-  // Reported rate-table angles (rad), NaN when not logged (signature of unexplained residuals only).
+  // Reported rate-table angles (rad) and rates (rad/s), NaN when not logged: the signature of unexplained
+  // residuals, and with a known table (Options::table) the fixture's axis errors.
   double table_angle_rad[3] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
                                std::numeric_limits<double>::quiet_NaN()};
+  double table_rate_rad_s[3] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+                                std::numeric_limits<double>::quiet_NaN()};
 };
 
 // A re-readable stream of samples (the diagnosis reads it twice).
@@ -126,6 +130,27 @@ struct Options {
   int max_mount_iterations = 2;
   double mount_prior_rad = 1e-3;  // prior σ per axis of that rotation (a fixture's mounting repeatability)
   double mount_max_rad = 5e-3;    // a larger estimate is not a mount: not used
+  // The rate table the log was taken on (`diagnose --campaign`; docs/diagnosis.md, "Fixture errors"). A real
+  // table's axes are tilted and its encoders' zeros offset by arc-seconds to arc-minutes; the log's reference is
+  // computed with the nominal geometry, so the error rotates the reference by a pose-dependent small angle that
+  // no sensor effect has (at 1 g, 0.01° is 1.7e-3 m/s², far above a block mean's noise). With the table known
+  // these errors (the fixture+errors solver's nuisance: tilt_a, tilt_b, zero per axis, physics::AxisError) are
+  // estimated with the base model, shared by the six axes, and the diagnosis re-runs on the reference
+  // re-evaluated at them (physics::table_kinematics at the reported angles and rates). Without it: the logged
+  // reference as is (a blind or real log that carries no table angles has nothing to re-evaluate).
+  struct Table {
+    bool known = false;
+    physics::TableGeometry nominal;  // errors zero
+    Eigen::Vector3d g_ned = Eigen::Vector3d::Zero(), wie_ned = Eigen::Vector3d::Zero();
+  } table;
+  // The axis errors the reference is re-evaluated at (set internally by diagnose()).
+  std::array<physics::AxisError, physics::kMaxTableAxes> fixture_error{};
+  int max_fixture_iterations = 3;
+  // Prior σ of each axis error (rad): a rate table's axis wobble and orthogonality and its encoder's zero are
+  // specified to arc-seconds (precision tables) to about an arc-minute (3e-4 rad, industrial ones). It holds
+  // the directions the campaign cannot separate from the base model (the innermost axis's zero and tilts are a
+  // common misalignment of both triads) at zero instead of letting them follow the noise.
+  double fixture_prior_rad = 3e-4;
   double T_ref_C = 25.0;
   // temp_hysteresis's turning threshold (°C) on the logged temperature. NaN: profiled over a grid and the
   // choice paid for in the p-value (docs/diagnosis.md § 5, "temp_hysteresis's threshold"); a base model that
@@ -447,6 +472,19 @@ struct DiagnosisResult {
   MountEstimate mount_est;
   std::array<double, 3> mount_rotation_rad{};  // the rotation the reference was evaluated at (0: none)
   int mount_iterations = 0;
+  // The rate table's axis errors (Options::table): the correction to Options::fixture_error this run found
+  // with the base model (diagonal σ, χ² against none on its information without the prior), and the errors
+  // the reference was re-evaluated at, with the last estimate's σ. Index 3·axis + {tilt_a, tilt_b, zero}.
+  struct FixtureEstimate {
+    bool valid = false;
+    int n = 0;  // 3 × table axes
+    std::array<double, 3 * physics::kMaxTableAxes> delta_rad{}, sigma_rad{};
+    double chi2 = 0;
+  };
+  FixtureEstimate fixture_est;
+  bool fixture_known = false;
+  std::array<double, 3 * physics::kMaxTableAxes> fixture_error_rad{}, fixture_sigma_rad{};
+  int fixture_iterations = 0;
   std::vector<StochasticScore> stochastic;
   std::vector<Cell> cells;
   std::vector<ParamEstimate> final_params; // the augmented model fitted on all data

@@ -366,6 +366,16 @@ nlohmann::json to_json(const DiagnosisResult& r) {
     j["mount_rotation"] = {{"rad", {num(r.mount_rotation_rad[0]), num(r.mount_rotation_rad[1]), num(r.mount_rotation_rad[2])}},
                            {"sigma_rad", {num(r.mount_est.sigma_rad[0]), num(r.mount_est.sigma_rad[1]), num(r.mount_est.sigma_rad[2])}},
                            {"iterations", r.mount_iterations}};
+  if (r.fixture_known) {
+    // The rate table's axis errors the reference was re-evaluated at (--campaign), named as the fixture+errors
+    // solver names its nuisance parameters; sigma: the last estimate's (prior included), iterations 0: none used.
+    nlohmann::json fx = nlohmann::json::array();
+    for (int m = 0; m < r.fixture_est.n; ++m)
+      fx.push_back({{"name", physics::axis_error_name(m / 3, m % 3)},
+                    {"rad", num(r.fixture_error_rad[static_cast<std::size_t>(m)])},
+                    {"sigma_rad", num(r.fixture_sigma_rad[static_cast<std::size_t>(m)])}});
+    j["fixture_errors"] = {{"parameters", fx}, {"iterations", r.fixture_iterations}, {"last_correction_chi2", num(r.fixture_est.chi2)}};
+  }
   j["timing_shift"] = {{"accel", {{"latency_s", num(r.timing_shift_latency_s[0])}, {"ppm", num(r.timing_shift_ppm[0])}}},
                        {"gyro", {{"latency_s", num(r.timing_shift_latency_s[1])}, {"ppm", num(r.timing_shift_ppm[1])}}},
                        {"iterations", r.timing_iterations}};

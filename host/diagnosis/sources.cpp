@@ -32,6 +32,7 @@ bool LogSource::next(Sample& s) {
     s.y[k] = row.raw[k] * m.accel_lsb_mps2;
     s.y[k + 3] = row.raw[k + 3] * m.gyro_lsb_rad_s;
     s.table_angle_rad[k] = k < m.table_axes ? row.table_angle_rad[k] : std::numeric_limits<double>::quiet_NaN();
+    s.table_rate_rad_s[k] = k < m.table_axes ? row.table_rate_rad_s[k] : std::numeric_limits<double>::quiet_NaN();
   }
   return true;
 }

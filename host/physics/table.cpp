@@ -159,6 +159,11 @@ ImuKinematics free_kinematics(const Eigen::Matrix3d& C_imu_ned, const Eigen::Vec
   return k;
 }
 
+std::string axis_error_name(int axis, int part) {
+  static const char* kPart[3] = {"tilt_a", "tilt_b", "zero"};
+  return "fixture.axis" + std::to_string(axis) + "." + kPart[part < 0 || part > 2 ? 2 : part];
+}
+
 Eigen::Vector3d axis_from_name(const std::string& name) {
   double sgn = 1.0;
   std::string n = name;

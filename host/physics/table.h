@@ -33,7 +33,13 @@ struct AxisError {
   double tilt_a_rad = 0.0;
   double tilt_b_rad = 0.0;
   double zero_rad = 0.0;
+  // Component by index, part 0 tilt_a, 1 tilt_b, 2 zero (the nuisance order of the solver and the diagnosis).
+  double& part(int p) { return p == 0 ? tilt_a_rad : p == 1 ? tilt_b_rad : zero_rad; }
+  double part(int p) const { return p == 0 ? tilt_a_rad : p == 1 ? tilt_b_rad : zero_rad; }
 };
+// "fixture.axis<i>.tilt_a|tilt_b|zero": the one name of an axis error, as the fixture+errors solver, the simulator's
+// truth and the diagnosis report it.
+std::string axis_error_name(int axis, int part);
 
 struct TableAxis {
   std::string name;          // e.g. "inner"

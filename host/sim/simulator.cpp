@@ -237,12 +237,9 @@ SimSummary simulate(const Campaign& c, const model::SensorModel& m, const SimOpt
         enabled.push_back(std::string(model::sensor_name(static_cast<Sensor>(s))) + "." +
                           model::effect_info(static_cast<Effect>(e)).name);
   json fixture = json::object();
-  for (int a = 0; a < n_axes; ++a) {
-    const std::string pre = "fixture.axis" + std::to_string(a) + ".";
-    fixture[pre + "tilt_a"] = geom_true.axes[static_cast<std::size_t>(a)].error.tilt_a_rad;
-    fixture[pre + "tilt_b"] = geom_true.axes[static_cast<std::size_t>(a)].error.tilt_b_rad;
-    fixture[pre + "zero"] = geom_true.axes[static_cast<std::size_t>(a)].error.zero_rad;
-  }
+  for (int a = 0; a < n_axes; ++a)
+    for (int part = 0; part < 3; ++part)
+      fixture[physics::axis_error_name(a, part)] = geom_true.axes[static_cast<std::size_t>(a)].error.part(part);
   fixture["fixture.mount.rx"] = ex.mount_err.x();
   fixture["fixture.mount.ry"] = ex.mount_err.y();
   fixture["fixture.mount.rz"] = ex.mount_err.z();

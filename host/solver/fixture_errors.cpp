@@ -27,12 +27,8 @@ struct Nuisance {
 // Every nuisance parameter of an n_axes table; the mount's three last.
 std::vector<Nuisance> all_nuisance(int n_axes) {
   std::vector<Nuisance> nu;
-  for (int a = 0; a < n_axes; ++a) {
-    const std::string p = "fixture.axis" + std::to_string(a) + ".";
-    nu.push_back({p + "tilt_a", a, 0});
-    nu.push_back({p + "tilt_b", a, 1});
-    nu.push_back({p + "zero", a, 2});
-  }
+  for (int a = 0; a < n_axes; ++a)
+    for (int part = 0; part < 3; ++part) nu.push_back({physics::axis_error_name(a, part), a, part});
   for (int k = 0; k < 3; ++k) nu.push_back({std::string("fixture.mount.r") + "xyz"[k], -1, k});
   return nu;
 }
@@ -45,8 +41,7 @@ physics::TableGeometry apply(const physics::TableGeometry& nominal, const std::v
     if (n.axis < 0) {
       g.mount.rot_error_rad[n.what] = v;
     } else {
-      auto& e = g.axes[static_cast<size_t>(n.axis)].error;
-      (n.what == 0 ? e.tilt_a_rad : n.what == 1 ? e.tilt_b_rad : e.zero_rad) = v;
+      g.axes[static_cast<size_t>(n.axis)].error.part(n.what) = v;
     }
   }
   return g;

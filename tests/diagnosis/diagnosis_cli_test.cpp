@@ -58,6 +58,51 @@ TEST(DiagnosisCli, WritesOutputsAndFindsTheEffect) {
     bad << "# format=imuforge-log\nthis is not a log\n";
   }
   EXPECT_EQ(run("--log " + (dir / "bad.csv").string() + " --model " + model + " --out " + (dir / "o4").string()), 2);
+
+  // --campaign: the table's geometry; its axis errors are estimated (all nine reported, none significant on this
+  // simulation's exact table). A missing file or a table whose axes the log does not carry is bad input, named, and
+  // leaves no output behind.
+  const json cj = rich_campaign({25.0}, 10.0);
+  {
+    std::ofstream f(dir / "camp.json");
+    f << cj.dump();
+    json one = cj;
+    one["table"]["axes"] = json::array({cj["table"]["axes"][0]});
+    for (auto& ph : one["phases"])
+      for (auto& st : ph["steps"]) {
+        for (const char* k : {"position_deg", "rate_dps", "amplitude_deg", "frequency_hz"})
+          if (st.contains(k)) st[k] = json::array({st[k][0]});
+      }
+    std::ofstream g(dir / "camp1.json");
+    g << one.dump();
+  }
+  ASSERT_EQ(run("--log " + log + " --model " + model + " --campaign " + (dir / "camp.json").string() + " --out " + (dir / "o5").string()), 0);
+  {
+    std::ifstream f(dir / "o5" / "diagnosis.json");
+    const auto jc = nlohmann::json::parse(f);
+    ASSERT_TRUE(jc.contains("fixture_errors"));
+    EXPECT_EQ(jc["fixture_errors"]["parameters"].size(), 9u);
+    EXPECT_EQ(jc["fixture_errors"]["parameters"][0]["name"], "fixture.axis0.tilt_a");
+    EXPECT_EQ(jc["selected"][0]["effect"], "g_sensitivity");
+  }
+  auto stderr_of = [&](const std::string& args, int& rc) {
+    const std::string errf = (dir / "stderr.txt").string();
+    const int r = std::system((std::string(IMUFORGE_BIN) + " diagnose " + args + " > /dev/null 2> " + errf).c_str());
+    rc = WIFEXITED(r) ? WEXITSTATUS(r) : -1;
+    std::ifstream f(errf);
+    return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  };
+  int rc = 0;
+  const std::string missing = (dir / "nope.json").string();
+  std::string err = stderr_of("--log " + log + " --model " + model + " --campaign " + missing + " --out " + (dir / "o6").string(), rc);
+  EXPECT_EQ(rc, 2);
+  EXPECT_NE(err.find(missing), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "o6"));
+  err = stderr_of("--log " + log + " --model " + model + " --campaign " + (dir / "camp1.json").string() + " --out " + (dir / "o7").string(), rc);
+  EXPECT_EQ(rc, 2);
+  EXPECT_NE(err.find("camp1.json"), std::string::npos) << err;
+  EXPECT_NE(err.find("table angle columns"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "o7"));
   if (!std::getenv("KEEP")) fs::remove_all(dir);
 }
 }  // namespace diagnosis_diagnosis_cli_test

@@ -114,8 +114,9 @@ inline json base_sensor(bool with_bias_temp, const json& extra = json::object())
           {"effects", eff}};
 }
 
-// Simulates in-process and converts to diagnosis samples (SI outputs).
-inline std::vector<dg::Sample> simulate(const json& campaign, const json& sensor, std::uint64_t seed) {
+// Simulates in-process and converts to diagnosis samples (SI outputs). with_table: the reported table angles and
+// rates too (what a log carries; the diagnosis's unexplained signature and its table-error estimate read them).
+inline std::vector<dg::Sample> simulate(const json& campaign, const json& sensor, std::uint64_t seed, bool with_table = false) {
   const auto c = imuforge::io::campaign_from_json(campaign);
   const auto m = imuforge::model::sensor_model_from_json(sensor);
   imuforge::sim::SimOptions o;
@@ -133,6 +134,10 @@ inline std::vector<dg::Sample> simulate(const json& campaign, const json& sensor
       s.w[k] = r.w_ref[k];
       s.y[k] = r.raw[k] * la;
       s.y[k + 3] = r.raw[k + 3] * lg;
+      if (with_table) {
+        s.table_angle_rad[k] = r.table_angle_rad[k];
+        s.table_rate_rad_s[k] = r.table_rate_rad_s[k];
+      }
     }
     out.push_back(s);
   });

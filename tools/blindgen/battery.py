@@ -239,6 +239,9 @@ def suite(name):
     if name == 'varied19':
         # the varied schedule at new seeds (21000+), added at stop 49 and run on the stop-48 binary before any change
         return varied_fresh(21000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2)
+    if name == 'varied20':
+        # the varied schedule at new seeds (22000+), added at stop 50 and run on the stop-49 binary before any change
+        return varied_fresh(22000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2)
     if name != 'full':
         raise SystemExit('unknown suite ' + name)
     for s in range(1, 51):
@@ -298,9 +301,10 @@ def make(work, name, kind, seed, opt, fmt, reuse=False):
     return d, truth
 
 
-def run_diagnose(imuforge, log, model, out, timeout_s=1800):
+def run_diagnose(imuforge, log, model, out, timeout_s=1800, campaign=None):
     t0 = time.time()
-    p = subprocess.run([imuforge, 'diagnose', '--log', log, '--model', model, '--out', out],
+    extra = ['--campaign', campaign] if campaign else []  # the table's geometry: its axis errors are estimated
+    p = subprocess.run([imuforge, 'diagnose', '--log', log, '--model', model, '--out', out] + extra,
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=timeout_s)
     with open(out + '.txt', 'wb') as f:
         f.write(p.stdout + p.stderr)
@@ -407,12 +411,12 @@ def simulate_log(imuforge, case_dir, truth, work, name, campaign_path=None):
         write_campaign(truth['scenario'], camp, truth['seed'])
     log = os.path.join(d, 'log.bin')
     if os.path.exists(log) and os.path.getmtime(log) > os.path.getmtime(os.path.join(case_dir, 'sensor.json')):
-        return log, d  # simulated already from this sensor file
+        return log, d, camp  # simulated already from this sensor file
     p = subprocess.run([imuforge, 'simulate', '--campaign', camp, '--sensor', os.path.join(case_dir, 'sensor.json'),
                         '--seed', str(truth['seed']), '--out', log, '--quiet'], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     if p.returncode != 0:
-        return None, 'imuforge simulate exit %d: %s' % (p.returncode, p.stderr.decode(errors='replace').strip()[:300])
-    return log, d
+        return None, 'imuforge simulate exit %d: %s' % (p.returncode, p.stderr.decode(errors='replace').strip()[:300]), None
+    return log, d, camp
 
 
 def pass_lcb95(k, n):
@@ -604,7 +608,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'unseen', 'unseen2', 'unseen3'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'unseen', 'unseen2', 'unseen3'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
@@ -636,11 +640,13 @@ def main(argv):
             if a.source == 'simulate':
                 if truth['out_of_catalog'] or truth['noise_extra'] or kind == 'ooc_noise':
                     continue  # the simulator cannot express these
-                log, sd = simulate_log(a.imuforge, d, truth, a.work, name, opt.get('campaign'))
+                log, sd, camp = simulate_log(a.imuforge, d, truth, a.work, name, opt.get('campaign'))
                 if log is None:
                     raise RuntimeError(sd)
                 out = os.path.join(sd, a.diag_tag)
-            dj, info = run_diagnose(a.imuforge, log, a.model, out)
+            # A simulated log's campaign is known (its user wrote it): the diagnosis gets its table geometry, as
+            # docs/diagnosis.md's loop does. blindgen's logs carry body-frame references and no table to re-evaluate.
+            dj, info = run_diagnose(a.imuforge, log, a.model, out, campaign=camp if a.source == 'simulate' else None)
             if dj is None:
                 raise RuntimeError(info)
             if opt.get('campaign'):
