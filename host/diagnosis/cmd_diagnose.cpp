@@ -13,12 +13,10 @@
 #include "host/app/command.h"
 #include "host/diagnosis/diagnose.h"
 #include "host/diagnosis/sources.h"
+#include "host/diagnosis/table_errors.h"
 #include "host/estimator/estimator.h"
 #include "host/io/campaign_file.h"
 #include "host/io/staged_file.h"
-#include "host/physics/campaign.h"
-#include "host/physics/earth.h"
-#include "host/physics/timeline.h"
 #include "host/poses/detect.h"
 #include "host/model/sensor_model.h"
 #include "host/solver/fixture.h"
@@ -207,25 +205,17 @@ int run_diagnose(int argc, char** argv) {
     if (!campaign_path.empty()) {
       physics::Campaign c;
       try {
-        c = io::load_campaign(campaign_path);
+        c = io::load_campaign(campaign_path);  // its errors name the file
       } catch (const std::exception& e) {
-        std::fprintf(stderr, "imuforge diagnose: --campaign %s: %s\n", campaign_path.c_str(), e.what());
+        std::fprintf(stderr, "imuforge diagnose: --campaign: %s\n", e.what());
         return app::exit_code_for(e);
       }
-      opt.table.nominal = physics::geometry_from_campaign(c).nominal();
-      if (real.meta().table_axes != opt.table.nominal.n_axes) {
-        std::fprintf(stderr,
-                     "imuforge diagnose: --campaign %s: its table has %d axes but %s logs %d table angle columns (the table's "
-                     "axis errors need the reported angles of every axis)\n",
-                     campaign_path.c_str(), opt.table.nominal.n_axes, log_path.c_str(), real.meta().table_axes);
+      try {
+        opt.table = diagnosis::table_of_campaign(c, real.meta().table_axes, "--campaign " + campaign_path);
+      } catch (const diagnosis::DiagnosisError& e) {
+        std::fprintf(stderr, "imuforge diagnose: %s (%s)\n", e.what(), log_path.c_str());
         return app::kExitUsage;
       }
-      physics::Site site;
-      site.latitude_deg = c.latitude_deg;
-      site.height_m = c.height_m;
-      opt.table.g_ned = physics::gravity_ned(site);
-      opt.table.wie_ned = physics::earth_rate_ned(site);
-      opt.table.known = true;
     }
     std::unique_ptr<diagnosis::LogSource> sim;
     std::unique_ptr<diagnosis::PairedSource> paired;

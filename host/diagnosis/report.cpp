@@ -122,6 +122,21 @@ std::string outcome(const DiagnosisResult& r, const CandidateScore& c) {
 
 }  // namespace
 
+// One sentence under the verdict when the reference it is judged against is not the logged one: re-evaluated at the
+// rate table's axis errors (--campaign). Empty otherwise.
+static std::string reference_note(const DiagnosisResult& r) {
+  if (!r.fixture_known || r.fixture_iterations == 0) return "";
+  std::string list;
+  for (int m = 0; m < r.fixture_est.n; ++m) {
+    const auto um = static_cast<std::size_t>(m);
+    if (!(std::fabs(r.fixture_error_rad[um]) > 2.0 * r.fixture_sigma_rad[um])) continue;
+    list += (list.empty() ? "" : ", ") + physics::axis_error_name(m / 3, m % 3) + " " + fmt("%.3g", 1e3 * r.fixture_error_rad[um]) +
+            " +/- " + fmt("%.2g", 1e3 * r.fixture_sigma_rad[um]) + " mrad";
+  }
+  return "Judged against the reference re-evaluated at the rate table's axis errors this log shows (--campaign" +
+         (list.empty() ? std::string(")") : "; " + list + ")") + ", not as logged.";
+}
+
 std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
   std::vector<std::string> out;
   for (int a = 0; a < kNumAxes; ++a) {
@@ -443,6 +458,7 @@ std::string summary_text(const DiagnosisResult& r) {
     << "-fold by " << r.cv_mode << "\n";
   o << "VERDICT\n";
   for (const auto& l : verdict_lines(r)) o << "  " << l << "\n";
+  if (!reference_note(r).empty()) o << "  " << reference_note(r) << "\n";
   o << "base model:";
   for (const auto& e : r.base_effects) o << " " << e;
   o << "\n\nWHERE: held-out gap (RMS of withheld block residuals above the modelled noise floor)\n";
@@ -705,6 +721,7 @@ std::string report_html(const DiagnosisResult& r) {
   h << "<h2>Verdict</h2><ul class=\"verdict\">";
   for (const auto& l : verdict_lines(r)) h << "<li>" << esc(l) << "</li>";
   h << "</ul>";
+  if (!reference_note(r).empty()) h << "<p>" << esc(reference_note(r)) << "</p>";
   h << "<details><summary>Full text summary</summary><pre>" << esc(summary_text(r)) << "</pre></details>";
   // The heat map scrolls inside its box when it is wider than the page.
   h << "<h2>Where: held-out residuals per axis and condition</h2><div style=\"overflow-x:auto;max-width:100%\">" << heatmap_svg(r)

@@ -7,12 +7,19 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "host/diagnosis/diagnose.h"
+#include "host/physics/campaign.h"
 #include "host/physics/table.h"
 
 namespace imuforge::diagnosis {
+
+// Options::table for a log taken with campaign c (`diagnose --campaign`, the Python module, the tests): its nominal
+// geometry and the Earth at its site. Throws DiagnosisError naming campaign_name when the log does not carry the
+// reported angle of every table axis (log_table_axes: io::LogMeta::table_axes).
+Options::Table table_of_campaign(const physics::Campaign& c, int log_table_axes, const std::string& campaign_name);
 
 // The rate table's axis errors (Options::table; docs/diagnosis.md, "Fixture errors"). Error m = 3·axis + {tilt_a,
 // tilt_b, zero} (physics::AxisError: the fixture+errors solver's nuisance parameters, in its order). The

@@ -14,6 +14,8 @@
 
 #include "host/diagnosis/diagnose.h"
 #include "host/diagnosis/sources.h"
+#include "host/diagnosis/table_errors.h"
+#include "host/io/campaign_file.h"
 #include "host/io/import.h"
 #include "host/io/log.h"
 #include "host/model/sensor_model.h"
@@ -246,7 +248,7 @@ py::object solve(const std::string& log_path, const py::object& model, const std
   return to_py(solver::calibration_to_json(res));
 }
 
-py::object diagnose(const std::string& log_path, const py::object& model, const std::string& mode) {
+py::object diagnose(const std::string& log_path, const py::object& model, const std::string& mode, const std::string& campaign) {
   diagnosis::BaseModel base;
   if (py::isinstance<py::str>(model) && model.cast<std::string>() == "basic") {
     base = diagnosis::basic_model();
@@ -271,6 +273,10 @@ py::object diagnose(const std::string& log_path, const py::object& model, const 
     throw std::runtime_error("diagnose: " + log_path + " has no reference columns; use mode='reference-free'");
   }
   diagnosis::Options opt;
+  if (!campaign.empty()) {
+    if (rf) throw std::runtime_error("diagnose: campaign= needs a log with a fixture reference; " + log_path + " is diagnosed reference-free");
+    opt.table = diagnosis::table_of_campaign(io::load_campaign(campaign), real.meta().table_axes, campaign);
+  }
   const diagnosis::DiagnosisResult r = diagnosis::diagnose(*src, base, opt);
   nlohmann::json j = diagnosis::to_json(r);
   j["inputs"] = {{"log", log_path}, {"mode", rf ? "reference-free" : "fixture"}};
@@ -466,8 +472,9 @@ PYBIND11_MODULE(imuforge, m) {
         py::arg("serial") = "", py::arg("static_window_s") = 1.0, py::arg("static_min_s") = 1.5,
         "Calibrates (mode 'fixture' or 'reference-free'; model: path or dict) and returns the cal.json dict. "
         "table=path (with serial=) also writes the firmware coefficient table.");
-  m.def("diagnose", &diagnose, py::arg("log"), py::arg("model") = "basic", py::arg("mode") = "auto",
-        "Sim-to-real gap diagnosis; returns the diagnosis.json dict.");
+  m.def("diagnose", &diagnose, py::arg("log"), py::arg("model") = "basic", py::arg("mode") = "auto", py::arg("campaign") = "",
+        "Sim-to-real gap diagnosis; returns the diagnosis.json dict. campaign=path: the log's campaign, whose table's "
+        "axis errors are then estimated (as `imuforge diagnose --campaign`).");
   m.def("read_cal", &read_cal, py::arg("path"), "Reads and validates a cal.json.");
   m.def("write_cal", &write_cal, py::arg("path"), py::arg("cal"), "Validates and writes a cal.json dict.");
   m.def("read_table", &read_table, py::arg("path"), "Parses a coefficient table v1 with the firmware parser.");

@@ -8,8 +8,7 @@
 #include "host/io/campaign_file.h"
 #include "host/diagnosis/sources.h"
 #include "host/io/log.h"
-#include "host/physics/earth.h"
-#include "host/physics/timeline.h"
+#include "host/diagnosis/table_errors.h"
 #include "tests/diagnosis/sim_helpers.h"
 
 using namespace diagtest;
@@ -31,15 +30,7 @@ void run_case(const char* title, const std::string& log, const json& camp, const
   }
   imuforge::diagnosis::LogSource src(log);
   imuforge::diagnosis::Options o;
-  if (table) {
-    imuforge::physics::Site site;
-    site.latitude_deg = c.latitude_deg;
-    site.height_m = c.height_m;
-    o.table.known = true;
-    o.table.nominal = imuforge::physics::geometry_from_campaign(c).nominal();
-    o.table.g_ned = imuforge::physics::gravity_ned(site);
-    o.table.wie_ned = imuforge::physics::earth_rate_ned(site);
-  }
+  if (table) o.table = imuforge::diagnosis::table_of_campaign(c, src.meta().table_axes, "bench campaign");
   auto t0 = std::chrono::steady_clock::now();
   const std::clock_t c0 = std::clock();
   auto r = imuforge::diagnosis::diagnose(src, imuforge::diagnosis::basic_model(), o);

@@ -17,8 +17,7 @@
 #include "host/model/measure.h"
 #include "host/diagnosis/stats.h"
 #include "host/diagnosis/step_lag.h"
-#include "host/physics/earth.h"
-#include "host/physics/timeline.h"
+#include "host/diagnosis/table_errors.h"
 #include "tests/diagnosis/sim_helpers.h"
 
 // A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
@@ -2606,19 +2605,11 @@ TEST(DiagnosisPipeline, TableAxisErrorsAreEstimatedNotReadAsSensorEffects) {
   const std::vector<Sample> log = diagtest::simulate(campaign, sensor, 11, true);
 
   const auto c = imuforge::io::campaign_from_json(campaign);
-  imuforge::physics::Site site;
-  site.latitude_deg = c.latitude_deg;
-  site.height_m = c.height_m;
   double worst_without = 0;
   for (const bool known : {false, true}) {
     VectorSource src(log);
     Options o;
-    if (known) {
-      o.table.known = true;
-      o.table.nominal = imuforge::physics::geometry_from_campaign(c).nominal();
-      o.table.g_ned = imuforge::physics::gravity_ned(site);
-      o.table.wie_ned = imuforge::physics::earth_rate_ned(site);
-    }
+    if (known) o.table = table_of_campaign(c, 3, "rich");
     const DiagnosisResult r = diagnose(src, basic_model(), o);
     std::set<std::string> sel;
     for (const auto& st : r.selected) sel.insert(st.sensor + "." + st.effect);
@@ -2629,6 +2620,9 @@ TEST(DiagnosisPipeline, TableAxisErrorsAreEstimatedNotReadAsSensorEffects) {
     }
     EXPECT_TRUE(r.fixture_known);
     EXPECT_GT(r.fixture_iterations, 0);
+    // The verdict says what it is judged against (a person reading "at noise" must know the reference was changed).
+    EXPECT_NE(summary_text(r).find("Judged against the reference re-evaluated at the rate table's axis errors"), std::string::npos);
+    EXPECT_NE(report_html(r).find("Judged against the reference re-evaluated"), std::string::npos);
     EXPECT_TRUE(sel.empty()) << *sel.begin();
     EXPECT_TRUE(r.unexplained.empty());
     for (int a = 0; a < kNumAxes; ++a) EXPECT_LT(r.gap_after.chi2_dof[static_cast<std::size_t>(a)], 2.0) << axis_name(a);

@@ -94,6 +94,12 @@ class Logs(unittest.TestCase):
         d = imuforge.diagnose(self.csv, os.path.join(EX, "model-basic.json"))
         self.assertEqual(d["inputs"]["mode"], "fixture")
         self.assertIn("gap", json.dumps(d))
+        self.assertNotIn("fixture_errors", d)
+        # With the log's campaign the table's axis errors are estimated, as `imuforge diagnose --campaign` does.
+        dc = imuforge.diagnose(self.csv, os.path.join(EX, "model-basic.json"), campaign=os.path.join(EX, "campaign-small.json"))
+        self.assertEqual(len(dc["fixture_errors"]["parameters"]), 3 * 3)
+        with self.assertRaises(Exception):
+            imuforge.diagnose(self.csv, os.path.join(EX, "model-basic.json"), campaign=os.path.join(self.dir, "none.json"))
 
 
 class Navigate(unittest.TestCase):
