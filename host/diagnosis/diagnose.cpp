@@ -4120,8 +4120,10 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     R.final_params.push_back({st.sensor + ".timing.ppm", st.sensor, sub ? L.ppm : 0.0, L.sigma_ppm});
   }
   R.warnings.insert(R.warnings.end(), probe_notes.begin(), probe_notes.end());
-  // The "before" picture is the base model against the reference as logged.
-  if (R.timing_iterations > 0 || force_linear[0] || force_linear[1]) {
+  // The "before" picture is the base model against the reference as logged (re-evaluated neither at a time shift
+  // nor at the table's axis errors: what the log shows before the diagnosis explains anything).
+  const bool timing_moved = R.timing_iterations > 0 || force_linear[0] || force_linear[1];
+  if (timing_moved || fixture_iterations > 0) {
     R.gap_before = first.gap_before;
     R.cells = first.cells;
     for (auto& st : R.selected)
@@ -4130,6 +4132,8 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
         st.shrink_pct[static_cast<std::size_t>(a)] =
             g0 > 0 ? 100.0 * (1.0 - std::max(st.gap_after.gap[static_cast<std::size_t>(a)], 0.0) / g0) : 0.0;
       }
+  }
+  if (timing_moved) {
     // Timing candidates keep their first-pass score (against the logged reference) in the ranking, once: a
     // sensor whose timing left the model (linear_off) was scored again in the last pass.
     R.ranking.erase(std::remove_if(R.ranking.begin(), R.ranking.end(), [](const CandidateScore& c) { return c.effect == "timing"; }),
