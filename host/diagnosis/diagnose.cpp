@@ -1954,10 +1954,8 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     }
     return fe;
   };
-  bool fixture_evaluated = false;  // the reference is re-evaluated at some error already
-  for (const auto& e : o.fixture_error)
-    for (int part = 0; part < 3; ++part) fixture_evaluated = fixture_evaluated || e.part(part) != 0.0;
-  if (o.table.known && !fixture_evaluated) R.fixture_est = fixture_estimate(model_ids);
+  // fixture_src.active(): the reference is re-evaluated at some error already.
+  if (o.table.known && !fixture_src.active()) R.fixture_est = fixture_estimate(model_ids);
 
   // Held-out gap of a model on withheld segments. gap_verdict: against the verdict's variances (whole-log
   // wander where adopted), what is reported and what the unexplained claim is judged on. gap_of: against the
@@ -2754,7 +2752,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   // runs to 6.5 mrad; with them the selection comes out clean), and for the first correction only: on the rotated
   // input what those effects still fit is theirs (varied random-0, a true gyro scale_asymmetry and k2 beside a
   // 0.5 mrad mount: fitted without them, the second correction took 3.7 mrad about z and left gyro.y unexplained).
-  if (o.table.known && fixture_evaluated) R.fixture_est = fixture_estimate(cur);
+  if (fixture_src.active()) R.fixture_est = fixture_estimate(cur);
   if (cur_effects.count({static_cast<int>(Sensor::kGyro), static_cast<int>(Effect::kCrossCoupling)}) ||
       cur_effects.count({static_cast<int>(Sensor::kGyro), static_cast<int>(Effect::kScaleNonlinearity)})) {
     // ε_imn: (e_m × ω)_i = Σ_n ε_imn ω_n.
@@ -4154,25 +4152,8 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   if (opt.table.known) {
     R.fixture_known = true;
     R.fixture_iterations = fixture_iterations;
-    for (int m = 0; m < R.fixture_est.n; ++m) {
+    for (int m = 0; m < R.fixture_est.n; ++m)
       R.fixture_error_rad[static_cast<std::size_t>(m)] = o.fixture_error[static_cast<std::size_t>(m / 3)].part(m % 3);
-      R.fixture_sigma_rad[static_cast<std::size_t>(m)] = R.fixture_est.sigma_rad[static_cast<std::size_t>(m)];
-    }
-    if (fixture_iterations > 0) {
-      std::string list;
-      for (int m = 0; m < R.fixture_est.n; ++m) {
-        const auto um = static_cast<std::size_t>(m);
-        if (!(std::fabs(R.fixture_error_rad[um]) > 2.0 * R.fixture_sigma_rad[um])) continue;
-        char b[120];
-        std::snprintf(b, sizeof b, "%s%s %.3g +/- %.2g mrad", list.empty() ? "" : ", ", physics::axis_error_name(m / 3, m % 3).c_str(),
-                      1e3 * R.fixture_error_rad[um], 1e3 * R.fixture_sigma_rad[um]);
-        list += b;
-      }
-      R.warnings.push_back("the rate table's axis errors (--campaign's geometry; estimated with the base model, then with the "
-                           "effects selected) rotate the logged reference by a pose-dependent angle no sensor effect has: the "
-                           "reference is re-evaluated at them (" +
-                           (list.empty() ? std::string("none beyond 2 sigma alone; jointly significant") : list) + ")");
-    }
   }
   // Reported timing = the shift the reference was re-evaluated at + the remaining linear correction.
   for (auto& pe : R.final_params) {

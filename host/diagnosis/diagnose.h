@@ -135,7 +135,7 @@ struct Options {
   // computed with the nominal geometry, so the error rotates the reference by a pose-dependent small angle that
   // no sensor effect has (at 1 g, 0.01° is 1.7e-3 m/s², far above a block mean's noise). With the table known
   // these errors (the fixture+errors solver's nuisance: tilt_a, tilt_b, zero per axis, physics::AxisError) are
-  // estimated with the base model, shared by the six axes, and the diagnosis re-runs on the reference
+  // estimated (first with the base model, then with the selection), shared by the six axes, and the diagnosis re-runs on the reference
   // re-evaluated at them (physics::table_kinematics at the reported angles and rates). Without it: the logged
   // reference as is (a blind or real log that carries no table angles has nothing to re-evaluate).
   struct Table {
@@ -472,9 +472,10 @@ struct DiagnosisResult {
   MountEstimate mount_est;
   std::array<double, 3> mount_rotation_rad{};  // the rotation the reference was evaluated at (0: none)
   int mount_iterations = 0;
-  // The rate table's axis errors (Options::table): the correction to Options::fixture_error this run found
-  // with the base model (diagonal σ, χ² against none on its information without the prior), and the errors
-  // the reference was re-evaluated at, with the last estimate's σ. Index 3·axis + {tilt_a, tilt_b, zero}.
+  // The rate table's axis errors (Options::table): the correction to Options::fixture_error this run found (with
+  // the base model on the logged reference, jointly with the selection on a re-evaluated one; diagonal σ of the
+  // whole error, χ² against none on its information without the prior), and the errors the reference was
+  // re-evaluated at (σ: fixture_est's). Index 3·axis + {tilt_a, tilt_b, zero}.
   struct FixtureEstimate {
     bool valid = false;
     int n = 0;  // 3 × table axes
@@ -483,7 +484,7 @@ struct DiagnosisResult {
   };
   FixtureEstimate fixture_est;
   bool fixture_known = false;
-  std::array<double, 3 * physics::kMaxTableAxes> fixture_error_rad{}, fixture_sigma_rad{};
+  std::array<double, 3 * physics::kMaxTableAxes> fixture_error_rad{};
   int fixture_iterations = 0;
   std::vector<StochasticScore> stochastic;
   std::vector<Cell> cells;

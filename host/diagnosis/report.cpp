@@ -129,9 +129,9 @@ static std::string reference_note(const DiagnosisResult& r) {
   std::string list;
   for (int m = 0; m < r.fixture_est.n; ++m) {
     const auto um = static_cast<std::size_t>(m);
-    if (!(std::fabs(r.fixture_error_rad[um]) > 2.0 * r.fixture_sigma_rad[um])) continue;
+    if (!(std::fabs(r.fixture_error_rad[um]) > 2.0 * r.fixture_est.sigma_rad[um])) continue;
     list += (list.empty() ? "" : ", ") + physics::axis_error_name(m / 3, m % 3) + " " + fmt("%.3g", 1e3 * r.fixture_error_rad[um]) +
-            " +/- " + fmt("%.2g", 1e3 * r.fixture_sigma_rad[um]) + " mrad";
+            " +/- " + fmt("%.2g", 1e3 * r.fixture_est.sigma_rad[um]) + " mrad";
   }
   return "Judged against the reference re-evaluated at the rate table's axis errors this log shows (--campaign" +
          (list.empty() ? std::string(")") : "; " + list + ")") + ", not as logged.";
@@ -388,7 +388,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
     for (int m = 0; m < r.fixture_est.n; ++m)
       fx.push_back({{"name", physics::axis_error_name(m / 3, m % 3)},
                     {"rad", num(r.fixture_error_rad[static_cast<std::size_t>(m)])},
-                    {"sigma_rad", num(r.fixture_sigma_rad[static_cast<std::size_t>(m)])}});
+                    {"sigma_rad", num(r.fixture_est.sigma_rad[static_cast<std::size_t>(m)])}});
     j["fixture_errors"] = {{"parameters", fx}, {"iterations", r.fixture_iterations}, {"last_correction_chi2", num(r.fixture_est.chi2)}};
   }
   j["timing_shift"] = {{"accel", {{"latency_s", num(r.timing_shift_latency_s[0])}, {"ppm", num(r.timing_shift_ppm[0])}}},

@@ -14,9 +14,7 @@ Options::Table table_of_campaign(const physics::Campaign& c, int log_table_axes,
     throw DiagnosisError(campaign_name + ": its table has " + std::to_string(t.nominal.n_axes) + " axes but the log has " +
                          std::to_string(log_table_axes) +
                          " table angle columns (the table's axis errors need the reported angles of every axis)");
-  physics::Site site;
-  site.latitude_deg = c.latitude_deg;
-  site.height_m = c.height_m;
+  const physics::Site site{c.latitude_deg, c.height_m};
   t.g_ned = physics::gravity_ned(site);
   t.wie_ned = physics::earth_rate_ned(site);
   t.known = true;

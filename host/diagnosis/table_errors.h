@@ -37,11 +37,10 @@ class TableErrors {
   explicit TableErrors(const Options& o) : known_(o.table.known), g_(o.table.g_ned), wie_(o.table.wie_ned) {
     if (!known_) return;
     n_axes_ = o.table.nominal.n_axes;
-    nominal_ = o.table.nominal;
-    physics::TableGeometry cur = nominal_;
+    physics::TableGeometry cur = o.table.nominal;
     for (int i = 0; i < n_axes_; ++i) cur.axes[static_cast<std::size_t>(i)].error = o.fixture_error[static_cast<std::size_t>(i)];
     for (int m = 0; m < 3 * n_axes_; ++m) corrected_ = corrected_ || o.fixture_error[static_cast<std::size_t>(m / 3)].part(m % 3) != 0.0;
-    tables_.emplace_back(nominal_);
+    tables_.emplace_back(o.table.nominal);
     tables_.emplace_back(cur);
     for (int m = 0; m < 3 * n_axes_; ++m) {
       physics::TableGeometry g = cur;
@@ -108,7 +107,6 @@ class TableErrors {
   }
   bool known_ = false, corrected_ = false;
   int n_axes_ = 0;
-  physics::TableGeometry nominal_;
   Eigen::Vector3d g_, wie_;
   std::vector<physics::PreparedTable> tables_;  // nominal, corrected, corrected + kStep on each error
   bool have_corr_ = false, have_jac_ = false;

@@ -47,7 +47,7 @@ void run_case(const char* title, const std::string& log, const json& camp, const
   if (r.fixture_known) {
     std::printf("  table axis errors (%d re-runs), mrad:", r.fixture_iterations);
     for (int m = 0; m < r.fixture_est.n; ++m)
-      std::printf(" %.3g+/-%.2g", 1e3 * r.fixture_error_rad[static_cast<std::size_t>(m)], 1e3 * r.fixture_sigma_rad[static_cast<std::size_t>(m)]);
+      std::printf(" %.3g+/-%.2g", 1e3 * r.fixture_error_rad[static_cast<std::size_t>(m)], 1e3 * r.fixture_est.sigma_rad[static_cast<std::size_t>(m)]);
     std::printf("\n");
   }
 }

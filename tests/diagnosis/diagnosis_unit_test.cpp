@@ -2630,7 +2630,7 @@ TEST(DiagnosisPipeline, TableAxisErrorsAreEstimatedNotReadAsSensorEffects) {
     int determined = 0;
     for (int m = 0; m < 9; ++m) {
       const auto um = static_cast<std::size_t>(m);
-      const double truth = err_deg[m / 3][m % 3] * M_PI / 180.0, sig = r.fixture_sigma_rad[um];
+      const double truth = err_deg[m / 3][m % 3] * M_PI / 180.0, sig = r.fixture_est.sigma_rad[um];
       if (!(sig < 0.3 * o.fixture_prior_rad)) continue;  // held by the prior: the campaign cannot separate it
       ++determined;
       EXPECT_LT(std::fabs(r.fixture_error_rad[um] - truth), 4.0 * sig) << m << ": " << r.fixture_error_rad[um] << " +/- " << sig << " vs " << truth;
