@@ -89,9 +89,10 @@ class TableErrors {
 
  private:
   // The derivative is held over 1e-3 rad (rad/s): it enters only block means that estimate errors of ~1e-4 rad, and
-  // a hold that long moves it by 1e-3 of itself (2e-7 m/s² at that error). At 1 kHz a 300 °/s turn moves 5e-3 rad a
-  // sample, so inside motion it is still evaluated every sample or two; on the sines' slow ends and on every dwell
-  // it is not. The correction, added to every sample, is held over kTol only.
+  // a hold that long moves it by 1e-3 of itself (2e-7 m/s² at that error). Inside motion the caller asks for it
+  // about every 10 ms only (diagnose.cpp, DerivativeGroup: the midpoint of each group of samples); on the sines'
+  // slow ends and on every dwell the hold spares even those. The correction, added to every sample, is held over
+  // kTol only.
   static constexpr double kStep = 1e-6, kTol = 1e-4, kTolJac = 1e-3;
   bool fresh(const physics::TableState& st, bool& have, physics::TableState& last, double tol) const {
     bool same = have;

@@ -104,58 +104,107 @@ Vec3 measure(const SensorModel& m, Sensor s, const MeasureInput& in, const Measu
   return measure(compile(m, s), in, opt);
 }
 
-void regressors(Sensor s, const std::vector<ParamId>& ids, const MeasureInput& in, double T_ref_C,
-                Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> J, const MeasureOptions& opt) {
-  if (J.cols() != static_cast<Eigen::Index>(ids.size()))
-    throw std::invalid_argument("regressors: J must have one column per parameter");
-  const Vec3& u = nominal(s, in);
-  const Vec3& ud = nominal_rate(s, in);
-  const double tau = in.T_C - T_ref_C;
-  const std::vector<ParamInfo>& all = params();
-  bool need_size = false;
-  for (ParamId id : ids) need_size = need_size || all[static_cast<std::size_t>(id)].effect == Effect::kSizeEffect;
-  Eigen::Matrix3d A = need_size ? size_matrix(in.w, in.wdot) : Eigen::Matrix3d::Zero();
-  // τ^p of the temperature polynomials, once per power and call (power is the nonlinearity's order elsewhere):
-  // pow() per column and sample was a quarter of a 1 h diagnosis. τ¹ is τ exactly, and the higher powers still
-  // come from pow(), so every column is what it was, bit for bit.
-  std::array<double, 4> tau_pows{1.0, tau, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
-  auto tau_pow = [&](int pw) {
+namespace {
+
+// What one sample gives every column of a triad: its input, the input's rate, the size-effect matrix and the
+// temperature's powers (τ^p once per power and sample: pow() per column and sample was a quarter of a 1 h
+// diagnosis; τ¹ is τ exactly and the higher powers still come from pow(), so every column is what it was).
+struct SampleTerms {
+  const Vec3& u;
+  const Vec3& ud;
+  const MeasureInput& in;
+  double tau;
+  Eigen::Matrix3d A;
+  std::array<double, 4> tau_pows;
+  SampleTerms(Sensor s, const MeasureInput& in_, double T_ref_C, bool need_size)
+      : u(nominal(s, in_)), ud(nominal_rate(s, in_)), in(in_), tau(in_.T_C - T_ref_C),
+        A(need_size ? size_matrix(in_.w, in_.wdot) : Eigen::Matrix3d::Zero()),
+        tau_pows{1.0, tau, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()} {}
+  double tau_pow(int pw) {
     if (pw <= 0) return 1.0;
     if (pw > 3) return std::pow(tau, pw);
     double& v = tau_pows[static_cast<std::size_t>(pw)];
     if (std::isnan(v)) v = std::pow(tau, pw);
     return v;
-  };
+  }
+};
+
+// The one statement of each column's physics (docs/error-model.md), for regressors() and RegressorPlan: col (the
+// column's three rows, contiguous) += ∂y/∂θ. Raw rows, not an Eigen block: a block per column and sample, with its
+// bounds checks, cost more than the physics.
+inline void add_column(const RegressorPlan::Column& c, SampleTerms& x, double* col) {
+  const int j = c.j, k = c.k, l = c.l;
+  const Vec3& u = x.u;
+  switch (c.effect) {
+    case Effect::kBias: col[j] += 1.0; break;
+    case Effect::kScale: col[j] += u[j]; break;
+    case Effect::kMisalign: col[j] += u[k]; break;
+    case Effect::kBiasTemp: col[j] += x.tau_pow(c.power); break;
+    case Effect::kScaleTemp: col[j] += x.tau_pow(c.power) * u[j]; break;
+    case Effect::kMisalignTemp: col[j] += x.tau_pow(c.power) * u[k]; break;
+    case Effect::kScaleNonlinearity: col[j] += c.power == 2 ? u[j] * u[j] : u[j] * u[j] * u[j]; break;
+    case Effect::kScaleAsymmetry: col[j] += std::min(u[j], 0.0); break;
+    case Effect::kCrossCoupling: col[j] += u[j] * u[k]; break;
+    case Effect::kGSensitivity: col[j] += x.in.f[k]; break;
+    case Effect::kG2Sensitivity: col[j] += x.in.f[k] * x.in.f[l]; break;
+    case Effect::kSizeEffect: col[j] += x.A(j, k); break;
+    case Effect::kTempHysteresis: col[j] += x.in.d; break;
+    case Effect::kTempRate: col[j] += x.in.Tdot_C_s; break;
+    case Effect::kTiming:
+      for (int r = 0; r < 3; ++r) col[r] -= c.latency ? x.ud[r] : 1e-6 * x.in.t_s * x.ud[r];
+      break;
+    default: break;
+  }
+}
+
+}  // namespace
+
+RegressorPlan::Column RegressorPlan::column(Sensor s, ParamId id, const MeasureOptions& opt) {
+  const ParamInfo& p = params()[static_cast<std::size_t>(id)];
+  Column c;
+  c.effect = p.effect;
+  c.j = static_cast<std::int8_t>(p.j);
+  c.k = static_cast<std::int8_t>(p.k);
+  c.l = static_cast<std::int8_t>(p.l);
+  const bool thermal = p.effect == Effect::kBiasTemp || p.effect == Effect::kScaleTemp || p.effect == Effect::kMisalignTemp;
+  c.power = static_cast<std::int8_t>(thermal || p.effect == Effect::kScaleNonlinearity ? p.power : 0);
+  c.latency = p.effect == Effect::kTiming && p.component == "latency_s";
+  c.active = p.sensor == s && p.deterministic && (p.effect != Effect::kTiming || opt.include_timing);
+  return c;
+}
+
+RegressorPlan::RegressorPlan(Sensor s, const std::vector<ParamId>& ids, const MeasureOptions& opt) : sensor_(s) {
+  cols_.reserve(ids.size());
+  for (ParamId id : ids) {
+    cols_.push_back(column(s, id, opt));
+    need_size_ = need_size_ || (cols_.back().active && cols_.back().effect == Effect::kSizeEffect);
+  }
+}
+
+void RegressorPlan::accumulate(const MeasureInput& in, double T_ref_C, Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> J) const {
+  if (J.cols() != static_cast<Eigen::Index>(cols_.size()))
+    throw std::invalid_argument("RegressorPlan::accumulate: J must have one column per parameter");
+  SampleTerms x(sensor_, in, T_ref_C, need_size_);
+  double* const base = J.data();
+  const Eigen::Index stride = J.outerStride();
+  for (std::size_t i = 0; i < cols_.size(); ++i)
+    if (cols_[i].active) add_column(cols_[i], x, base + static_cast<Eigen::Index>(i) * stride);
+}
+
+void regressors(Sensor s, const std::vector<ParamId>& ids, const MeasureInput& in, double T_ref_C,
+                Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> J, const MeasureOptions& opt) {
+  if (J.cols() != static_cast<Eigen::Index>(ids.size()))
+    throw std::invalid_argument("regressors: J must have one column per parameter");
+  const std::vector<ParamInfo>& all = params();
+  bool need_size = false;
+  for (ParamId id : ids) need_size = need_size || all[static_cast<std::size_t>(id)].effect == Effect::kSizeEffect;
+  SampleTerms x(s, in, T_ref_C, need_size);
+  J.setZero();
+  double* const base = J.data();
+  const Eigen::Index stride = J.outerStride();
   for (std::size_t i = 0; i < ids.size(); ++i) {
-    auto col = J.col(static_cast<Eigen::Index>(i));
-    col.setZero();
-    const ParamInfo& p = all[static_cast<std::size_t>(ids[i])];
-    if (p.sensor != s || !p.deterministic) continue;
-    const int j = p.j, k = p.k, l = p.l;
-    const bool thermal = p.effect == Effect::kBiasTemp || p.effect == Effect::kScaleTemp || p.effect == Effect::kMisalignTemp;
-    const double tpow = thermal ? tau_pow(p.power) : 1.0;
-    switch (p.effect) {
-      case Effect::kBias: col[j] = 1.0; break;
-      case Effect::kScale: col[j] = u[j]; break;
-      case Effect::kMisalign: col[j] = u[k]; break;
-      case Effect::kBiasTemp: col[j] = tpow; break;
-      case Effect::kScaleTemp: col[j] = tpow * u[j]; break;
-      case Effect::kMisalignTemp: col[j] = tpow * u[k]; break;
-      case Effect::kScaleNonlinearity: col[j] = p.power == 2 ? u[j] * u[j] : u[j] * u[j] * u[j]; break;
-      case Effect::kScaleAsymmetry: col[j] = std::min(u[j], 0.0); break;
-      case Effect::kCrossCoupling: col[j] = u[j] * u[k]; break;
-      case Effect::kGSensitivity: col[j] = in.f[k]; break;
-      case Effect::kG2Sensitivity: col[j] = in.f[k] * in.f[l]; break;
-      case Effect::kSizeEffect: col[j] = A(j, k); break;
-      case Effect::kTempHysteresis: col[j] = in.d; break;
-      case Effect::kTempRate: col[j] = in.Tdot_C_s; break;
-      case Effect::kTiming:
-        if (!opt.include_timing) break;
-        if (p.component == "latency_s") col = -ud;
-        else col = -1e-6 * in.t_s * ud;
-        break;
-      default: break;
-    }
+    const RegressorPlan::Column c = RegressorPlan::column(s, ids[i], opt);
+    if (c.active) add_column(c, x, base + static_cast<Eigen::Index>(i) * stride);
   }
 }
 

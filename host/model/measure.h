@@ -9,6 +9,7 @@
 // turn-on bias) are NOT here: the simulator realises them (host/sim/noise.h).
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include <Eigen/Core>
@@ -74,6 +75,33 @@ Vec3 measure(const SensorModel& m, Sensor s, const MeasureInput& in, const Measu
 // O(ids.size()), no allocation.
 void regressors(Sensor s, const std::vector<ParamId>& ids, const MeasureInput& in, double T_ref_C,
                 Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> J, const MeasureOptions& opt = {});
+
+// The regressors of a fixed parameter list, compiled once for a per-sample loop that sums them (the diagnosis's
+// block means): accumulate() adds J = ∂y/∂θ to a 3 × ids.size() matrix, bit-identical to adding what
+// regressors(s, ids, …) returns (one column kernel serves both). Each column is held in 12 bytes instead of
+// read from its ParamInfo, and only its non-zero entries (one, three for timing) are touched: the per-sample
+// regressors were a quarter of a 1 h, 1 kHz diagnosis, which the plan takes from 12.8 s to 11.1 s
+// (diagnosis_bench). Construction O(ids.size()) (allocates);
+// accumulate() O(ids.size()), no allocation. Throws std::invalid_argument when J has the wrong width.
+class RegressorPlan {
+ public:
+  struct Column {
+    Effect effect = Effect::kBias;
+    std::int8_t j = 0, k = 0, l = 0, power = 0;
+    bool latency = false;  // timing: the latency column (else the clock's ppm)
+    bool active = false;   // a deterministic parameter of this triad (else the column stays zero)
+  };
+  static Column column(Sensor s, ParamId id, const MeasureOptions& opt = {});
+  RegressorPlan() = default;
+  RegressorPlan(Sensor s, const std::vector<ParamId>& ids, const MeasureOptions& opt = {});
+  std::size_t size() const { return cols_.size(); }
+  void accumulate(const MeasureInput& in, double T_ref_C, Eigen::Ref<Eigen::Matrix<double, 3, Eigen::Dynamic>> J) const;
+
+ private:
+  Sensor sensor_ = Sensor::kAccel;
+  bool need_size_ = false;
+  std::vector<Column> cols_;
+};
 
 // Size-effect term alone: s_j = [ω×(ω×r_j) + ω̇×r_j]_j (m/s²). Exposed for the test and the docs.
 Vec3 size_effect_term(const double r[3][3], const Vec3& w, const Vec3& wdot);

@@ -1,4 +1,5 @@
 // Effect catalog, sensor/model JSON, and measure() == nominal + regressors·θ.
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <set>
@@ -41,6 +42,21 @@ TEST(Catalog, NamesAreUniqueAndRoundTrip) {
   for (int i = 0; i < kNumEffects; ++i) EXPECT_EQ(static_cast<int>(effects()[static_cast<std::size_t>(i)].effect), i);
 }
 
+// A sample with every input of the model away from zero (hysteresis direction d given).
+MeasureInput random_input(std::mt19937_64& gen, double d) {
+  std::normal_distribution<double> nd;
+  MeasureInput in;
+  in.f = Eigen::Vector3d(nd(gen), nd(gen), nd(gen)) * 5;
+  in.w = Eigen::Vector3d(nd(gen), nd(gen), nd(gen));
+  in.wdot = Eigen::Vector3d(nd(gen), nd(gen), nd(gen));
+  in.fdot = Eigen::Vector3d(nd(gen), nd(gen), nd(gen));
+  in.T_C = 25 + 20 * nd(gen);
+  in.Tdot_C_s = 0.05 * nd(gen);
+  in.d = d;
+  in.t_s = 100 * std::fabs(nd(gen));
+  return in;
+}
+
 // The central consistency test: the simulator's measure() and the solver's regressors agree exactly.
 TEST(Measure, EqualsNominalPlusRegressorsTimesTheta) {
   std::mt19937_64 gen(7);
@@ -49,15 +65,7 @@ TEST(Measure, EqualsNominalPlusRegressorsTimesTheta) {
     ParamSet th;
     for (const auto& p : params())
       if (p.deterministic) th[p.id] = 1e-3 * nd(gen);
-    MeasureInput in;
-    in.f = Eigen::Vector3d(nd(gen), nd(gen), nd(gen)) * 5;
-    in.w = Eigen::Vector3d(nd(gen), nd(gen), nd(gen));
-    in.wdot = Eigen::Vector3d(nd(gen), nd(gen), nd(gen));
-    in.fdot = Eigen::Vector3d(nd(gen), nd(gen), nd(gen));
-    in.T_C = 25 + 20 * nd(gen);
-    in.Tdot_C_s = 0.05 * nd(gen);
-    in.d = trial % 3 - 1;
-    in.t_s = 100 * std::fabs(nd(gen));
+    const MeasureInput in = random_input(gen, trial % 3 - 1);
     for (Sensor s : {Sensor::kAccel, Sensor::kGyro}) {
       std::vector<ParamId> ids;
       for (const auto& p : params())
@@ -75,6 +83,39 @@ TEST(Measure, EqualsNominalPlusRegressorsTimesTheta) {
       EXPECT_LT((measure(compile(th, s, 21.5), in, no_t) - nominal(s, in) - J * theta).norm(), 1e-12 * (1 + y.norm()));
     }
   }
+}
+
+// The diagnosis sums regressors over a block's samples through RegressorPlan (one compiled column list, only the
+// non-zero entries touched): the sum must be the one regressors() gives, to the bit, with and without timing,
+// over every deterministic parameter of both sensors (the other sensor's columns stay zero), on a matrix that
+// already holds something (the block's running sum), written into a column slice of a wider matrix.
+TEST(Measure, RegressorPlanAccumulatesExactlyWhatRegressorsGive) {
+  std::mt19937_64 gen(11);
+  std::vector<ParamId> ids;
+  for (const auto& p : params())
+    if (p.deterministic) ids.push_back(p.id);
+  std::shuffle(ids.begin(), ids.end(), gen);  // any order: a column is found by its position
+  const auto n = static_cast<Eigen::Index>(ids.size());
+  for (Sensor s : {Sensor::kAccel, Sensor::kGyro})
+    for (const bool timing : {true, false}) {
+      const MeasureOptions opt{timing};
+      const RegressorPlan plan(s, ids, opt);
+      ASSERT_EQ(plan.size(), ids.size());
+      Eigen::Matrix<double, 3, Eigen::Dynamic> sum_ref = Eigen::Matrix<double, 3, Eigen::Dynamic>::Constant(3, n, 0.25), J(3, n);
+      Eigen::MatrixXd wide = Eigen::MatrixXd::Constant(3, n + 2, 0.25);
+      for (int k = 0; k < 40; ++k) {
+        const MeasureInput in = random_input(gen, k % 3 - 1);
+        regressors(s, ids, in, 21.5, J, opt);
+        sum_ref += J;
+        plan.accumulate(in, 21.5, wide.middleCols(1, n));
+      }
+      for (Eigen::Index c = 0; c < n; ++c)
+        for (int r = 0; r < 3; ++r)
+          ASSERT_EQ(wide(r, c + 1), sum_ref(r, c)) << param_info(ids[static_cast<std::size_t>(c)]).name << " row " << r << (timing ? "" : " (no timing)");
+      EXPECT_TRUE((wide.col(0).array() == 0.25).all() && (wide.col(n + 1).array() == 0.25).all());  // nothing outside the slice
+      Eigen::Matrix<double, 3, Eigen::Dynamic> narrow(3, n - 1);
+      EXPECT_THROW(plan.accumulate(MeasureInput{}, 21.5, narrow), std::invalid_argument);
+    }
 }
 
 TEST(Measure, IndividualTermsMatchTheDocumentedEquation) {
