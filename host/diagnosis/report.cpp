@@ -458,7 +458,7 @@ std::string summary_text(const DiagnosisResult& r) {
     << "-fold by " << r.cv_mode << "\n";
   o << "VERDICT\n";
   for (const auto& l : verdict_lines(r)) o << "  " << l << "\n";
-  if (!reference_note(r).empty()) o << "  " << reference_note(r) << "\n";
+  if (const std::string note = reference_note(r); !note.empty()) o << "  " << note << "\n";
   o << "base model:";
   for (const auto& e : r.base_effects) o << " " << e;
   o << "\n\nWHERE: held-out gap (RMS of withheld block residuals above the modelled noise floor)\n";
@@ -721,7 +721,7 @@ std::string report_html(const DiagnosisResult& r) {
   h << "<h2>Verdict</h2><ul class=\"verdict\">";
   for (const auto& l : verdict_lines(r)) h << "<li>" << esc(l) << "</li>";
   h << "</ul>";
-  if (!reference_note(r).empty()) h << "<p>" << esc(reference_note(r)) << "</p>";
+  if (const std::string note = reference_note(r); !note.empty()) h << "<p>" << esc(note) << "</p>";
   h << "<details><summary>Full text summary</summary><pre>" << esc(summary_text(r)) << "</pre></details>";
   // The heat map scrolls inside its box when it is wider than the page.
   h << "<h2>Where: held-out residuals per axis and condition</h2><div style=\"overflow-x:auto;max-width:100%\">" << heatmap_svg(r)
