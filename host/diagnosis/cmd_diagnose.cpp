@@ -377,6 +377,22 @@ int run_diagnose(int argc, char** argv) {
       for (const auto& [key, v] : mj["effects"].items()) has_hyst = has_hyst || key.find("temp_hysteresis") != std::string::npos;
       if (has_hyst && !r.hysteresis_threshold_given && !mj.contains("hysteresis_threshold_C"))
         mj["hysteresis_threshold_C"] = r.hysteresis_threshold_C;
+      // The solver leaves dwell rows within its dwell guard of a reference change out, so that a late or early
+      // time stamp does not read the motion into a dwell (solver::DwellGuard). A timing shift the guard would
+      // not cover (the largest |λ + 1e-6·ε·t| over the log, at either end) gets a guard 1.5× that, in 0.1 s.
+      {
+        const double shift_s = diagnosis::max_timing_shift_s(r);
+        const double guard_s = mj.value("dwell_guard_s", solver::kDefaultDwellGuard_s);
+        if (guard_s > 0 && shift_s > 0.8 * guard_s) {
+          const double g = std::ceil(15.0 * shift_s) / 10.0;
+          mj["dwell_guard_s"] = g;
+          mj["_diagnosis"]["dwell_guard"] = {{"max_timing_shift_s", shift_s}, {"guard_s", g}, {"was_s", guard_s}};
+          std::fprintf(stderr,
+                       "imuforge diagnose: --emit-model: timing shift up to %.3g s over the log; dwell_guard_s %.3g s "
+                       "(was %.3g s) so the solver's dwell means stay clear of the motion\n",
+                       shift_s, g, guard_s);
+        }
+      }
       if (!rf && sim_path.empty()) {
         try {
           keep_solver_identifiable(mj, log_path, added, r);

@@ -1447,6 +1447,20 @@ double variable_of(const Block& b, const std::string& var, int axis) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------
+double max_timing_shift_s(const DiagnosisResult& r) {
+  std::map<std::string, std::pair<double, double>> timing;  // fitted axis -> (latency_s, ppm)
+  for (const auto& pe : r.final_params) {
+    const auto dot = pe.name.rfind('.');
+    if (pe.name.find(".timing.") == std::string::npos || dot == std::string::npos) continue;
+    auto& lp = timing[pe.axis.empty() ? pe.name.substr(0, pe.name.find('.')) : pe.axis];
+    (pe.name.compare(dot + 1, std::string::npos, "ppm") == 0 ? lp.second : lp.first) = pe.value;
+  }
+  double shift_s = 0;
+  for (const auto& [axis, lp] : timing)
+    shift_s = std::max({shift_s, std::abs(lp.first), std::abs(lp.first + 1e-6 * lp.second * r.duration_s)});
+  return shift_s;
+}
+
 double plausible_limit(const model::ParamInfo& p) {
   const bool acc = p.sensor == Sensor::kAccel;
   const double pw = p.power > 0 ? std::pow(10.0, -(p.power - 1)) : 1.0;  // each temperature power: ÷10

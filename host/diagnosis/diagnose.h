@@ -510,6 +510,11 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
 // Largest physically plausible |value| of a catalog parameter (docs/error-model.md, "Plausible ranges").
 double plausible_limit(const model::ParamInfo& p);
 
+// The largest time-stamp shift the final model gives over the log: |λ + 1e-6·ε·t| at either end (s), over every
+// axis timing was fitted on; 0 without timing. `diagnose --emit-model` sizes the solver's dwell guard from it
+// (solver::DwellGuard). O(final parameters).
+double max_timing_shift_s(const DiagnosisResult& r);
+
 // Pooled Allan variance per axis of the static blocks of a source (used for --sim).
 std::array<std::vector<AllanAccumulator::Point>, kNumAxes> static_allan(SampleSource& src, const Options& opt);
 

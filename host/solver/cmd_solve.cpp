@@ -386,6 +386,10 @@ int run_solve(int argc, char** argv) {
       res.residual_rms = sol.residual_rms;
       res.noise_sigma = sol.noise_sigma;
     }
+    res.extra["dwell_guard"] = {{"guard_s", acc.dwell_guard_s()}, {"samples_left_out", acc.guarded_samples()}};
+    if (acc.guarded_samples() > 0)
+      std::printf("dwell guard: %lld dwell samples within %.2g s of a reference change left out (model \"dwell_guard_s\")\n",
+                  acc.guarded_samples(), acc.dwell_guard_s());
     if (acc.has_per_plateau()) {
       nlohmann::json pl = nlohmann::json::array();
       for (const auto& p : acc.plateaus()) pl.push_back({{"T_C", p.T_C}, {"samples", p.samples}});

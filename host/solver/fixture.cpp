@@ -92,6 +92,115 @@ bool CenteredTempRate::pop(io::LogRow& row, double& Tdot_C_s) {
 
 // ---------------------------------------------------------------------------------------------------
 
+DwellGuard::DwellGuard(double guard_s) : guard_s_(guard_s) {
+  if (!(guard_s >= 0) || !std::isfinite(guard_s))
+    throw SolverError("dwell_guard_s must be a finite number of seconds >= 0");
+}
+
+DwellGuard::Ref DwellGuard::ref_of(const io::LogRow& row) {
+  Ref r;
+  r.has = row.has_ref;
+  for (int k = 0; k < 3; ++k) {
+    r.u[k] = row.f_ref[k];
+    r.u[3 + k] = row.w_ref[k];
+  }
+  return r;
+}
+
+bool DwellGuard::differs(const Ref& a, const Ref& b) {
+  if (!a.has || !b.has) return true;  // an unknown reference may be anything
+  for (int k = 0; k < 3; ++k)
+    if (!(std::abs(a.u[k] - b.u[k]) <= kBlockTolF_mps2) || !(std::abs(a.u[3 + k] - b.u[3 + k]) <= kBlockTolW_rad_s))
+      return true;
+  return false;
+}
+
+void DwellGuard::push(const io::LogRow& row, double Tdot_C_s) {
+  if (closed_) throw SolverError("DwellGuard::push after close()");
+  if (!std::isfinite(row.t_s))
+    throw SolverError("log row after t=" + std::to_string(last_t_) + " s has a non-finite time stamp");
+  if (row.t_s < last_t_)
+    throw SolverError("log time goes backwards (" + std::to_string(row.t_s) + " s after " + std::to_string(last_t_) +
+                      " s): the dwell guard needs rows in time order");
+  last_t_ = row.t_s;
+  if (guard_s_ == 0) {
+    pending_.push_back({row, Tdot_C_s, -1});
+    return;
+  }
+  if (pending_.size() >= kMaxRows)
+    throw SolverError("dwell guard of " + std::to_string(guard_s_) + " s holds more than " + std::to_string(kMaxRows) +
+                      " rows (time stamps stuck at " + std::to_string(row.t_s) +
+                      " s?); reduce \"dwell_guard_s\" in the model file");
+  const bool in_dwell = row.has_ref && row.segment >= 0;
+  const Ref key = ref_of(row);
+  if (!runs_.empty() && runs_.back().open && !(in_dwell && row.segment == runs_.back().segment))
+    runs_.back().open = false;
+  // Look ahead for runs that ended: the first outside row within guard_s that differs settles t_la.
+  for (Run& r : runs_) {
+    if (r.open || r.resolved) continue;
+    if (row.t_s - r.t_last > guard_s_) {
+      r.resolved = true;
+    } else if (differs(key, r.last)) {
+      r.t_la = row.t_s;
+      r.resolved = true;
+    }
+  }
+  long long run = -1;
+  if (in_dwell) {
+    if (runs_.empty() || !runs_.back().open) {
+      Run r;
+      r.id = next_run_++;
+      r.segment = row.segment;
+      for (const auto& h : hist_)
+        if (h.first >= row.t_s - guard_s_ && differs(key, h.second)) r.t_lb = std::max(r.t_lb, h.first);
+      runs_.push_back(r);
+    }
+    runs_.back().t_last = row.t_s;
+    runs_.back().last = key;
+    run = runs_.back().id;
+  }
+  while (!hist_.empty() && hist_.front().first < row.t_s - guard_s_) hist_.pop_front();
+  hist_.emplace_back(row.t_s, key);
+  pending_.push_back({row, Tdot_C_s, run});
+}
+
+void DwellGuard::close() { closed_ = true; }
+
+bool DwellGuard::pop(io::LogRow& row, double& Tdot_C_s, bool& keep) {
+  if (pending_.empty()) return false;
+  const Pending& p = pending_.front();
+  // Final once a row past t + guard_s has arrived: a differing row later than that cannot reach it.
+  if (!(closed_ || guard_s_ == 0 || p.row.t_s + guard_s_ < last_t_)) return false;
+  keep = true;
+  const long long run = p.run;
+  if (run >= 0) {
+    const Run& r = runs_[static_cast<std::size_t>(run - runs_.front().id)];
+    keep = !(p.row.t_s - r.t_lb <= guard_s_ || r.t_la - p.row.t_s <= guard_s_);
+    if (!keep) ++dropped_;
+  }
+  row = p.row;
+  Tdot_C_s = p.q;
+  pending_.pop_front();
+  if (run >= 0 && !runs_.front().open && (pending_.empty() || pending_.front().run != run)) runs_.pop_front();
+  if (pending_.empty() && closed_) hist_.clear();
+  return true;
+}
+
+double dwell_guard_of(const model::ModelSpec& spec) {
+  double g_s = kDefaultDwellGuard_s;
+  if (spec.extra.is_object()) {
+    const auto g = spec.extra.find("dwell_guard_s");
+    if (g != spec.extra.end()) {
+      if (!g->is_number() || !(g->get<double>() >= 0) || !std::isfinite(g->get<double>()))
+        throw SolverError("model \"dwell_guard_s\" must be a number of seconds >= 0");
+      g_s = g->get<double>();
+    }
+  }
+  return g_s;
+}
+
+// ---------------------------------------------------------------------------------------------------
+
 const char* channel_name(int c) {
   static const char* n[kNumChannels] = {"accel.x", "accel.y", "accel.z", "gyro.x", "gyro.y", "gyro.z"};
   return (c >= 0 && c < kNumChannels) ? n[c] : "?";
@@ -112,7 +221,8 @@ ChannelStats& ChannelStats::operator+=(const ChannelStats& o) {
   return *this;
 }
 
-FixtureAccumulator::FixtureAccumulator(const model::ModelSpec& spec, const io::LogMeta& meta) : spec_(spec) {
+FixtureAccumulator::FixtureAccumulator(const model::ModelSpec& spec, const io::LogMeta& meta)
+    : spec_(spec), guard_(dwell_guard_of(spec)) {
   if (!(meta.accel_lsb_mps2 > 0) || !(meta.gyro_lsb_rad_s > 0))
     throw SolverError("log metadata lacks a positive accel_lsb/gyro_lsb: cannot convert counts to SI");
   lsb_[0] = meta.accel_lsb_mps2;
@@ -160,20 +270,22 @@ model::HysteresisTracker logged_hysteresis_tracker(const model::ModelSpec& spec)
 
 void FixtureAccumulator::add(const io::LogRow& row) {
   if (finished_) throw SolverError("FixtureAccumulator::add after finish()");
+  auto use = [this](const io::LogRow& r, double q, bool keep) { process(r, q, keep); };
   if (!tdot_) {
-    process(row, 0.0);
+    guard_.feed(row, 0.0, use);
     return;
   }
-  tdot_->feed(row, [this](const io::LogRow& r, double q) { process(r, q); });
+  tdot_->feed(row, [this, &use](const io::LogRow& r, double q) { guard_.feed(r, q, use); });
 }
 
-void FixtureAccumulator::process(const io::LogRow& row, double Tdot_C_s) {
+void FixtureAccumulator::process(const io::LogRow& row, double Tdot_C_s, bool keep) {
   const double d = hyst_.update(row.temp_C, row.t_s);
   if (!row.has_ref || row.segment < 0) {
     flush_block();
     flush_segment();
     return;
   }
+  if (!keep) return;  // guarded (DwellGuard): the segment goes on after it, so nothing is flushed
   double T = row.temp_C;
   if (std::isnan(T)) {
     if (needs_temp_)
@@ -387,7 +499,9 @@ void FixtureAccumulator::flush_segment() {
 
 void FixtureAccumulator::finish() {
   if (finished_) return;
-  if (tdot_) tdot_->finish([this](const io::LogRow& r, double q) { process(r, q); });
+  auto use = [this](const io::LogRow& r, double q, bool keep) { process(r, q, keep); };
+  if (tdot_) tdot_->finish([this, &use](const io::LogRow& r, double q) { guard_.feed(r, q, use); });
+  guard_.finish(use);
   flush_block();
   flush_segment();
   finished_ = true;
@@ -398,6 +512,11 @@ void FixtureAccumulator::finish() {
                                                                       plateau_n_[p]};
   for (auto& kv : segments_)
     if (kv.second.plateau >= 0) kv.second.plateau = discovery_to_sorted_[static_cast<size_t>(kv.second.plateau)];
+  if (samples_used_ == 0 && guard_.dropped() > 0)
+    throw SolverError("every dwell sample (" + std::to_string(guard_.dropped()) + ") lies within the dwell guard of " +
+                      std::to_string(guard_.guard_s()) +
+                      " s of a reference change: the dwells are too short for it; set \"dwell_guard_s\" lower in the model "
+                      "(0 turns it off) if the sensor's time stamps are known to match the fixture's");
   if (samples_used_ == 0) throw SolverError("the log has no sample with a fixture reference inside a dwell");
   if (plateau_n_.empty())
     throw SolverError("per-plateau model: every segment is in transit (its temperature moves by more than 3 °C); "

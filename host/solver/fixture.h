@@ -111,6 +111,90 @@ class CenteredTempRate {
   bool closed_ = false;
 };
 
+// Dwell guard. A sample stamped late (transport latency, a slow clock) or early reads the table's
+// motion into the first or last moments of a dwell. A `rate` step has no settle (docs/formats.md), so
+// without a guard a 20 ppm clock, 0.19 s late by the end of campaign-eol, puts the end of each
+// acceleration into the rate dwells, and the fixture solve reads the deficit as gyro scale (1.7–2e-3,
+// 30–50σ, on the automotive example). A dwell row is left out when some row within guard_s of it, before
+// or after, lies outside its dwell (another segment, segment −1 or no reference) and has a different
+// reference (beyond the block tolerances, 2e-3 m/s² and 2e-4 rad/s):
+//  - a position dwell after a settle at its own pose loses nothing at its start;
+//  - a rate dwell loses guard_s at its start, and any dwell loses guard_s before the motion after it;
+//  - a log with instantaneous pose changes (no settle) loses guard_s on each side of every change.
+// So any timing shift of either sign up to guard_s leaves the dwell means clean. A shift the guard does
+// not cover is what `imuforge diagnose` reports as timing. Rows are released guard_s late, in time
+// order; use(row, Ṫ, keep) sees each row once, keep = false for a guarded dwell row.
+class DwellGuard {
+ public:
+  // guard_s ≥ 0 and finite (SolverError otherwise); 0 passes every row through at once with keep = true.
+  explicit DwellGuard(double guard_s);
+  // Throws SolverError if t is not finite or goes backwards, or guard_s holds more than kMaxRows rows.
+  // Amortised O(1); at the first row of a dwell O(rows in the preceding guard_s).
+  void push(const io::LogRow& row, double Tdot_C_s);
+  // End of the log: every pending row is final (the last dwell keeps its end).
+  void close();
+  // Next row (time order) whose fate is final; false if none yet.
+  bool pop(io::LogRow& row, double& Tdot_C_s, bool& keep);
+  template <class F>
+  void feed(const io::LogRow& row, double Tdot_C_s, F&& use) {
+    push(row, Tdot_C_s);
+    drain(use);
+  }
+  template <class F>
+  void finish(F&& use) {
+    close();
+    drain(use);
+  }
+  double guard_s() const { return guard_s_; }
+  long long dropped() const { return dropped_; }  // rows released with keep = false so far
+  static constexpr std::size_t kMaxRows = CenteredTempRate::kMaxRows;
+
+ private:
+  struct Ref {
+    bool has = false;
+    double u[6] = {};  // f_ref, w_ref
+  };
+  static Ref ref_of(const io::LogRow& row);
+  static bool differs(const Ref& a, const Ref& b);
+  // One contiguous run of rows of one segment. t_lb: latest differing outside row before it (within
+  // guard_s of its first row); t_la: first differing outside row after it (within guard_s of its last).
+  struct Run {
+    long long id = 0;
+    int segment = -1;
+    double t_lb = -std::numeric_limits<double>::infinity();
+    double t_la = std::numeric_limits<double>::infinity();
+    double t_last = 0.0;
+    Ref last;
+    bool open = true;
+    bool resolved = false;
+  };
+  struct Pending {
+    io::LogRow row;
+    double q = 0.0;
+    long long run = -1;  // −1: outside every dwell
+  };
+  template <class F>
+  void drain(F& use) {
+    io::LogRow r;
+    double q = 0.0;
+    bool keep = true;
+    while (pop(r, q, keep)) use(r, q, keep);
+  }
+  double guard_s_;
+  std::deque<Pending> pending_;
+  std::deque<Run> runs_;                      // runs with pending rows (and the open one)
+  std::deque<std::pair<double, Ref>> hist_;   // (t, reference) of the rows in the last guard_s
+  long long next_run_ = 0;
+  long long dropped_ = 0;
+  double last_t_ = -std::numeric_limits<double>::infinity();
+  bool closed_ = false;
+};
+
+// The dwell guard of a model: its "dwell_guard_s" (s, ≥ 0; 0 turns the guard off), else
+// kDefaultDwellGuard_s. Throws SolverError unless finite and ≥ 0.
+constexpr double kDefaultDwellGuard_s = 0.5;
+double dwell_guard_of(const model::ModelSpec& spec);
+
 // The Ṫ window of a model: its "dTdt_window_s" (s), else ThermalConstants' default. Throws SolverError
 // unless positive and finite.
 double dTdt_window_of(const model::ModelSpec& spec);
@@ -125,8 +209,9 @@ class FixtureAccumulator {
 
   // Streams one row. Rows without a reference or outside a dwell (segment −1) only feed the hysteresis
   // tracker and the Ṫ estimate: in motion, ω̇ and ḟ are not in the log, so those rows cannot be
-  // modelled exactly. With temp_rate in the model every row is processed dTdt_window_s late (its Ṫ
-  // needs the temperatures up to t + window), so on_segment fires that much later.
+  // modelled exactly. Dwell rows next to a reference change are left out (DwellGuard), so every row is
+  // processed dwell_guard_s late; with temp_rate in the model dTdt_window_s later still (its Ṫ needs the
+  // temperatures up to t + window). on_segment fires that much later.
   void add(const io::LogRow& row);
   // Flushes the last block and segment. Must be called before the results below.
   void finish();
@@ -169,6 +254,9 @@ class FixtureAccumulator {
   Sigma6 residual_rms(const Eigen::VectorXd& theta) const;
   const std::map<int, SegmentSummary>& segments() const { return segments_; }
   long long samples_used() const { return samples_used_; }
+  // Dwell rows left out by the dwell guard (DwellGuard, model "dwell_guard_s"), and that guard.
+  long long guarded_samples() const { return guard_.dropped(); }
+  double dwell_guard_s() const { return guard_.guard_s(); }
   // Per-plateau models only: samples of segments whose die temperature moved by more than the plateau
   // tolerance (3 °C). They belong to no plateau (SegmentSummary::plateau = −1, no on_segment call) and
   // inform no parameter.
@@ -178,7 +266,7 @@ class FixtureAccumulator {
   const std::vector<model::ParamId>& sensor_ids(model::Sensor s) const { return ids_[static_cast<int>(s)]; }
 
  private:
-  void process(const io::LogRow& row, double Tdot_C_s);
+  void process(const io::LogRow& row, double Tdot_C_s, bool keep);
   void flush_block();
   void flush_segment();
   int plateau_of(double T_C);
@@ -194,6 +282,7 @@ class FixtureAccumulator {
   model::HysteresisTracker hyst_;  // logged_hysteresis_tracker(spec)
   double dTdt_window_s_ = 10.0;
   std::optional<CenteredTempRate> tdot_;  // only when the model has temp_rate
+  DwellGuard guard_;                      // after tdot_: rows reach process() guard_s later still
 
   // Ṫ moments of the current block, q = Ṫ: Σ q s^k (k ≤ 3), Σ q², per channel Σ q z. With them the
   // temp_rate regressor (q on its axis) joins the block compression exactly: φ(s, q) = B m(s) + e q.

@@ -68,6 +68,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
     wie_ned_ = physics::earth_rate_ned(site);
     for (model::ParamId id : ids_all_) has_temp_rate_ = has_temp_rate_ || model::param_info(id).effect == model::Effect::kTempRate;
     dTdt_window_s_ = dTdt_window_of(spec);
+    dwell_guard_s_ = dwell_guard_of(spec);
     lsb_[0] = log.meta().accel_lsb_mps2;
     lsb_[1] = log.meta().gyro_lsb_rad_s;
     if (log.meta().table_axes != nominal_.n_axes)
@@ -111,9 +112,11 @@ class FixtureErrorsProblem : public NonlinearProblem {
     // Ṫ for temp_rate: the same streaming centred difference as fixture mode (rows come out delayed).
     std::optional<CenteredTempRate> tdot;
     if (has_temp_rate_) tdot.emplace(dTdt_window_s_);
-    auto process = [&](const io::LogRow& row, double Tdot_C_s) {
+    // The same dwell guard as fixture mode: dwell rows next to a reference change are left out.
+    DwellGuard guard(dwell_guard_s_);
+    auto process = [&](const io::LogRow& row, double Tdot_C_s, bool keep) {
       const double d = hyst.update(row.temp_C, row.t_s);
-      if (row.segment < 0 || !row.has_ref) return;
+      if (row.segment < 0 || !row.has_ref || !keep) return;
       physics::TableState st{};
       bool ok = true;
       for (int a = 0; a < nominal_.n_axes; ++a) {
@@ -164,12 +167,14 @@ class FixtureErrorsProblem : public NonlinearProblem {
       }
       ++count;
     };
+    auto guarded = [&](const io::LogRow& r, double q) { guard.feed(r, q, process); };
     io::LogRow row;
     while (log_.next(row)) {
-      if (tdot) tdot->feed(row, process);
-      else process(row, 0.0);
+      if (tdot) tdot->feed(row, guarded);
+      else guarded(row, 0.0);
     }
-    if (tdot) tdot->finish(process);
+    if (tdot) tdot->finish(guarded);
+    guard.finish(process);
     ne.info = info.selfadjointView<Eigen::Lower>();
     ne.n_obs = 6 * count;
     samples_ = count;
@@ -189,6 +194,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
   double lsb_[2];
   bool has_temp_rate_ = false;
   double dTdt_window_s_ = 10.0;
+  double dwell_guard_s_ = kDefaultDwellGuard_s;
   mutable long long samples_ = 0;
   mutable Sigma6 rms_{};
 };

@@ -1717,6 +1717,8 @@ TEST(DiagnosisPipeline, AClockDriftingPastASecondOnSmoothMotionIsReadOffTheMotio
   EXPECT_NEAR(r.timing_shift_latency_s[1], 0.0, 2e-3);
   EXPECT_EQ(r.timing_shift_latency_s[0], 0.0);
   EXPECT_EQ(r.timing_shift_ppm[0], 0.0);
+  // 1.13 s early by the end: what `diagnose --emit-model` sizes the solver's dwell guard by.
+  EXPECT_NEAR(max_timing_shift_s(r), std::abs(ppm[1]) * 1e-6 * t_end, 0.01);
   bool said = false;
   for (const auto& w : r.warnings) said = said || w.find("follows the reference's motion") != std::string::npos;
   EXPECT_TRUE(said);

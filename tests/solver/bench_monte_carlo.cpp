@@ -81,11 +81,11 @@ int main(int argc, char** argv) {
       d.insert(d.end(), extra.end() - 6, extra.end());  // the rate runs only
     }
     cfg.dwells = d;
-    spec = thermal_model(3);
+    spec = synth::unguarded(thermal_model(3));
   } else {
     cfg.plateaus_C = {-10, 25, 60};
     cfg.samples_per_dwell = 50;
-    spec = model::load_model_spec(IMUFORGE_SOURCE_DIR "/docs/examples/model-thermal.json");
+    spec = synth::unguarded(model::load_model_spec(IMUFORGE_SOURCE_DIR "/docs/examples/model-thermal.json"));
   }
   auto truth = synth::truth_params();
   // Order-3 terms the truth does not set are zero (ParamSet default): still estimated, still scored.
