@@ -333,6 +333,13 @@ int run_diagnose(int argc, char** argv) {
                            " times within a logged segment: each part withheld as a dwell of its own");
     if (rf) r.warnings.push_back("reference-free mode: references are pseudo-references from the gravity direction of each static pose; "
                                  "errors along a pose's own direction and all rate-dependent effects are invisible");
+    // A simulated or real table is never perfect: without its geometry its axis tilts and encoder zeros stay in
+    // the residual (campaign-eol's automotive log: read as accel scale_asymmetry, 1 false effect).
+    if (!rf && !opt.table.known && real.meta().table_axes > 0)
+      r.warnings.push_back("the log carries the rate table's reported angles (" + std::to_string(real.meta().table_axes) +
+                           " axes) but no --campaign was given: the table's axis tilts and encoder zeros are not estimated "
+                           "and stay in the residual, where they can read as accelerometer effects; --campaign C.json "
+                           "estimates them (docs/diagnosis.md § 6, \"Fixture errors\")");
     std::error_code ec;
     std::filesystem::create_directories(out_dir, ec);
     if (ec) {

@@ -45,6 +45,13 @@ TEST(DiagnosisCli, WritesOutputsAndFindsTheEffect) {
   EXPECT_EQ(j["selected"][0]["effect"], "g_sensitivity");
   EXPECT_EQ(j["ranking"][0]["sensor"], "gyro");
   EXPECT_TRUE(fs::exists(dir / "out" / "report.html"));
+  // The log carries the table's angles: without --campaign the diagnosis says what that leaves unestimated.
+  auto warns_of_campaign = [](const nlohmann::json& jj) {
+    bool said = false;
+    for (const auto& w : jj["warnings"]) said = said || w.get<std::string>().find("no --campaign was given") != std::string::npos;
+    return said;
+  };
+  EXPECT_TRUE(warns_of_campaign(j));
 
   // Usage errors, a bad model or a bad log -> 2 (bad input).
   EXPECT_EQ(run("--model " + model + " --out " + (dir / "o2").string()), 2);
@@ -84,6 +91,7 @@ TEST(DiagnosisCli, WritesOutputsAndFindsTheEffect) {
     EXPECT_EQ(jc["fixture_errors"]["parameters"].size(), 9u);
     EXPECT_EQ(jc["fixture_errors"]["parameters"][0]["name"], "fixture.axis0.tilt_a");
     EXPECT_EQ(jc["selected"][0]["effect"], "g_sensitivity");
+    EXPECT_FALSE(warns_of_campaign(jc));
   }
   auto stderr_of = [&](const std::string& args, int& rc) {
     const std::string errf = (dir / "stderr.txt").string();
