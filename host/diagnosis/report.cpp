@@ -715,13 +715,20 @@ std::string report_html(const DiagnosisResult& r) {
   std::ostringstream h;
   h << "<!DOCTYPE html><html><head><meta charset='utf-8'><title>imuforge diagnosis</title>"
     << "<style>body{font-family:sans-serif;max-width:1100px;margin:1em auto}table{border-collapse:collapse}"
-    << "td,th{border:1px solid #ccc;padding:2px 6px;font-size:12px}pre{background:#f6f6f6;padding:8px;white-space:pre-wrap}ul.verdict li{font-size:15px;margin:3px 0}</style></head><body>";
+    << "td,th{border:1px solid #ccc;padding:2px 6px;font-size:12px}pre{background:#f6f6f6;padding:8px;white-space:pre-wrap}ul.verdict li{font-size:15px;margin:3px 0}ul.caveats li{font-size:13px;margin:2px 0}</style></head><body>";
   h << "<h1>Sim-to-real gap diagnosis</h1>";
   // Verdict first: one line per axis; then the evidence.
   h << "<h2>Verdict</h2><ul class=\"verdict\">";
   for (const auto& l : verdict_lines(r)) h << "<li>" << esc(l) << "</li>";
   h << "</ul>";
   if (const std::string note = reference_note(r); !note.empty()) h << "<p>" << esc(note) << "</p>";
+  // What the verdict rests on (an effect the campaign cannot exclude, a reference re-evaluated at a timing shift,
+  // table errors left unestimated) stays in sight, not only inside the collapsed text.
+  if (!r.warnings.empty()) {
+    h << "<details open><summary>Caveats (" << r.warnings.size() << ")</summary><ul class=\"caveats\">";
+    for (const auto& w : r.warnings) h << "<li>" << esc(w) << "</li>";
+    h << "</ul></details>";
+  }
   h << "<details><summary>Full text summary</summary><pre>" << esc(summary_text(r)) << "</pre></details>";
   // The heat map scrolls inside its box when it is wider than the page.
   h << "<h2>Where: held-out residuals per axis and condition</h2><div style=\"overflow-x:auto;max-width:100%\">" << heatmap_svg(r)

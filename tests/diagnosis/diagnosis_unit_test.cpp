@@ -1190,6 +1190,14 @@ TEST(DiagnosisPipeline, FindsInjectedGSensitivityAndReportsUnexcitable) {
   EXPECT_EQ(html.find("<script"), std::string::npos);
   EXPECT_EQ(html.find("src="), std::string::npos);
   EXPECT_EQ(html.find("href="), std::string::npos);
+  // Every warning is in sight under the verdict, not only inside the collapsed text.
+  r.warnings.push_back("a caveat <with> markup");
+  const std::string html2 = report_html(r);
+  const auto caveats = html2.find("Caveats (" + std::to_string(r.warnings.size()) + ")");
+  ASSERT_NE(caveats, std::string::npos);
+  EXPECT_LT(caveats, html2.find("Full text summary"));
+  EXPECT_NE(html2.find("<li>a caveat &lt;with&gt; markup</li>"), std::string::npos);
+  r.warnings.pop_back();
   EXPECT_NE(summary_text(r).find("g_sensitivity"), std::string::npos);
   // Every excitable candidate says what this log could have seen: 5σ per component, positive.
   ASSERT_TRUE(j["ranking"][0].contains("min_detectable_5sigma"));
