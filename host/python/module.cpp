@@ -229,7 +229,7 @@ py::object solve(const std::string& log_path, const py::object& model, const std
     io::LogRow row;
     while (log.next(row)) acc.add(row);
     acc.finish();
-    const solver::FixtureSolution sol = solver::solve_fixture(acc, acc.static_noise_sigma());
+    const solver::FixtureSolution sol = solver::solve_fixture_widened(acc, acc.static_noise_sigma());
     res.estimate = sol.estimate;
     res.observability = sol.observability;
     res.residual_rms = sol.residual_rms;

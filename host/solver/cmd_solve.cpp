@@ -354,12 +354,40 @@ int run_solve(int argc, char** argv) {
     FixtureSolution sol;
     bool have_inverse = false;
     std::string inverse_error;
+    // σ from the static noise assumes it white from dwell to dwell. Bias instability, a random walk or an effect
+    // the model lacks make the dwell means scatter more: on such a channel σ is widened to what the scatter shows
+    // (docs/calibration.md, "Dwell scatter"); the estimate does not move.
+    SegmentScatter sc;
+    Sigma6 sigma_cov = sigma;  // the σ behind the covariance
     try {
-      sol = solve_fixture(acc, sigma);
+      sol = solve_fixture_widened(acc, sigma, &sc, &sigma_cov);
       have_inverse = true;
     } catch (const SolverError& e) {
       if (a.method == "inverse") throw;
       inverse_error = e.what();
+    }
+    if (have_inverse) {
+      const bool widen = dwell_scatter_of(spec);
+      nlohmann::json jsc = {{"widened", widen}};
+      std::string loud;
+      for (int c = 0; c < kNumChannels; ++c) {
+        const double r = sc.ratio[static_cast<size_t>(c)];
+        const int dof = sc.dof[static_cast<size_t>(c)];
+        if (!std::isfinite(r)) continue;
+        const bool sig = scatter_significant(r, dof);
+        jsc[channel_name(c)] = {{"ratio", r}, {"dof", dof}, {"significant", sig}};
+        if (sig) {
+          char b[64];
+          std::snprintf(b, sizeof b, "%s%s %.3g", loud.empty() ? "" : ", ", channel_name(c), r);
+          loud += b;
+        }
+      }
+      if (sigma_cov != sigma) jsc["sigma_widened"] = std::vector<double>(sigma_cov.begin(), sigma_cov.end());
+      res.extra["dwell_scatter"] = jsc;
+      if (!loud.empty())
+        std::printf("dwell scatter: the dwell means scatter more than white noise lets them (%s x the variance: bias drift "
+                    "or an effect the model lacks); %s\n",
+                    loud.c_str(), widen ? "σ on those axes widened by the square root" : "σ NOT widened (\"dwell_scatter\": false)");
     }
     if (oc) {
       const Estimate rec = oc->estimate();
@@ -429,7 +457,7 @@ int run_solve(int argc, char** argv) {
       for (int c = 0; c < kNumChannels; ++c)
         std::printf("  %-8s noise σ %.3e  residual RMS %.3e\n", channel_name(c), sol.noise_sigma[static_cast<size_t>(c)],
                     sol.residual_rms[static_cast<size_t>(c)]);
-      apply_fixture_tolerance(res, log, spec, a, sol.noise_sigma);
+      apply_fixture_tolerance(res, log, spec, a, sigma_cov);
       print_estimate(res.estimate, true, res.sigma_noise);
     }
   }

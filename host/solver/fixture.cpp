@@ -1,3 +1,6 @@
+// Fixture mode, one piece (past 600 lines): a row's path through the Ṫ delay line (CenteredTempRate), the dwell
+// guard (DwellGuard), the block, segment and plateau moments and the solve with its dwell-scatter widening. They
+// share the block tolerances and the per-segment statistics; apart, each would reach into the others' state.
 #include "host/solver/fixture.h"
 
 #include <algorithm>
@@ -245,6 +248,12 @@ FixtureAccumulator::FixtureAccumulator(const model::ModelSpec& spec, const io::L
     any_per_plateau_ = any_per_plateau_ || pp;
     needs_temp_ = needs_temp_ || pp || is_temperature_effect(pi.effect) || pi.effect == Effect::kTempRate;
   }
+  for (int s = 0; s < 2; ++s)
+    for (size_t i = 0; i < ids_[static_cast<size_t>(s)].size(); ++i) {
+      const auto& pi = model::param_info(ids_[static_cast<size_t>(s)][i]);
+      if (pi.effect == Effect::kBias && pi.j >= 0 && pi.j < 3 && !per_plateau_[static_cast<size_t>(s)][i])
+        bias_local_[static_cast<size_t>(s)][static_cast<size_t>(pi.j)] = static_cast<int>(i);
+    }
   if (has_rate) tdot_.emplace(dTdt_window_s_);
   for (int c = 0; c < kNumChannels; ++c) seg_stats_[static_cast<size_t>(c)].reset(static_cast<int>(ids_[static_cast<size_t>(c / 3)].size()));
 }
@@ -494,6 +503,21 @@ void FixtureAccumulator::flush_segment() {
   plateau_T_sum_[static_cast<size_t>(p)] += seg_sum_.T_C * n;
   plateau_n_[static_cast<size_t>(p)] += seg_sum_.n;
   segments_[seg_sum_.segment] = seg_sum_;
+  {
+    SegmentMeans m;
+    m.segment = seg_sum_.segment;
+    m.plateau = p;
+    m.n = seg_sum_.n;
+    for (int c = 0; c < kNumChannels; ++c) {
+      const int ib = bias_local_[static_cast<size_t>(c / 3)][static_cast<size_t>(c % 3)];
+      if (ib < 0) continue;
+      const ChannelStats& st = seg_stats_[static_cast<size_t>(c)];
+      m.has[static_cast<size_t>(c)] = true;
+      m.sphi[static_cast<size_t>(c)] = st.a.col(ib);
+      m.sz[static_cast<size_t>(c)] = st.b[ib];
+    }
+    seg_means_.push_back(std::move(m));
+  }
   if (on_segment) on_segment(seg_sum_, seg_stats_);
 }
 
@@ -512,6 +536,8 @@ void FixtureAccumulator::finish() {
                                                                       plateau_n_[p]};
   for (auto& kv : segments_)
     if (kv.second.plateau >= 0) kv.second.plateau = discovery_to_sorted_[static_cast<size_t>(kv.second.plateau)];
+  for (auto& m : seg_means_)
+    if (m.plateau >= 0) m.plateau = discovery_to_sorted_[static_cast<size_t>(m.plateau)];
   if (samples_used_ == 0 && guard_.dropped() > 0)
     throw SolverError("every dwell sample (" + std::to_string(guard_.dropped()) + ") lies within the dwell guard of " +
                       std::to_string(guard_.guard_s()) +
@@ -664,6 +690,71 @@ Sigma6 FixtureAccumulator::residual_rms(const Eigen::VectorXd& theta) const {
   for (int c = 0; c < kNumChannels; ++c)
     out[static_cast<size_t>(c)] = n[static_cast<size_t>(c)] ? std::sqrt(std::max(0.0, out[static_cast<size_t>(c)]) / static_cast<double>(n[static_cast<size_t>(c)])) : 0.0;
   return out;
+}
+
+SegmentScatter segment_scatter(const FixtureAccumulator& acc, const Eigen::VectorXd& theta, const Sigma6& sigma) {
+  SegmentScatter out;
+  const int np = static_cast<int>(acc.plateaus().size());  // finished: the sorted plateaus
+  for (int c = 0; c < kNumChannels; ++c) {
+    const int s = c / 3;
+    const int nl = static_cast<int>(acc.sensor_ids(static_cast<Sensor>(s)).size());
+    double q = 0.0;
+    int dwells = 0;
+    std::vector<bool> acts(static_cast<size_t>(nl), false);
+    for (const auto& m : acc.segment_means()) {
+      if (!m.has[static_cast<size_t>(c)] || m.n == 0) continue;
+      const Eigen::VectorXd& sp = m.sphi[static_cast<size_t>(c)];
+      double pred = 0.0;
+      for (int i = 0; i < nl; ++i) {
+        if (sp[i] == 0.0) continue;
+        acts[static_cast<size_t>(i)] = true;
+        pred += sp[i] * theta[acc.slot(s, i, m.plateau < 0 ? 0 : m.plateau, std::max(np, 1))];
+      }
+      const double rbar = (m.sz[static_cast<size_t>(c)] - pred) / static_cast<double>(m.n);
+      q += static_cast<double>(m.n) * rbar * rbar;
+      ++dwells;
+    }
+    const int p = static_cast<int>(std::count(acts.begin(), acts.end(), true));
+    out.dof[static_cast<size_t>(c)] = dwells - p;
+    const double s2 = sigma[static_cast<size_t>(c)] * sigma[static_cast<size_t>(c)];
+    out.ratio[static_cast<size_t>(c)] =
+        dwells - p > 0 ? q / s2 / static_cast<double>(dwells - p) : std::numeric_limits<double>::quiet_NaN();
+  }
+  return out;
+}
+
+bool scatter_significant(double ratio, int dof) {
+  return dof > 0 && std::isfinite(ratio) && ratio > 1.0 + 3.0 * std::sqrt(2.0 / dof);
+}
+
+Sigma6 dwell_widened_sigma(const SegmentScatter& sc, const Sigma6& sigma) {
+  Sigma6 out = sigma;
+  for (int c = 0; c < kNumChannels; ++c)
+    if (scatter_significant(sc.ratio[static_cast<size_t>(c)], sc.dof[static_cast<size_t>(c)]))
+      out[static_cast<size_t>(c)] *= std::sqrt(sc.ratio[static_cast<size_t>(c)]);
+  return out;
+}
+
+bool dwell_scatter_of(const model::ModelSpec& spec) {
+  if (!spec.extra.is_object()) return true;
+  const auto d = spec.extra.find("dwell_scatter");
+  if (d == spec.extra.end()) return true;
+  if (!d->is_boolean()) throw SolverError("model \"dwell_scatter\" must be true or false");
+  return d->get<bool>();
+}
+
+FixtureSolution solve_fixture_widened(const FixtureAccumulator& acc, const Sigma6& sigma, SegmentScatter* scatter,
+                                      Sigma6* widened) {
+  FixtureSolution sol = solve_fixture(acc, sigma);
+  const SegmentScatter sc = segment_scatter(acc, sol.estimate.value, sigma);
+  if (scatter) *scatter = sc;
+  Sigma6 wide = sigma;
+  if (dwell_scatter_of(acc.spec())) wide = dwell_widened_sigma(sc, sigma);
+  if (widened) *widened = wide;
+  if (wide == sigma) return sol;
+  FixtureSolution w = solve_fixture(acc, wide);
+  w.noise_sigma = sigma;
+  return w;
 }
 
 FixtureSolution solve_fixture(const FixtureAccumulator& acc, const Sigma6& sigma) {

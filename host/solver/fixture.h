@@ -254,6 +254,19 @@ class FixtureAccumulator {
   Sigma6 residual_rms(const Eigen::VectorXd& theta) const;
   const std::map<int, SegmentSummary>& segments() const { return segments_; }
   long long samples_used() const { return samples_used_; }
+  // Per dwell (segment) and channel: samples, Σφ and Σz, where φ is the channel's regressor row in the
+  // sensor's local space. Σφ is the bias column of the segment's A (the bias regressor is 1), so it costs
+  // nothing to keep; `has[c]` is false when the model has no bias on that channel. Transit segments of a
+  // per-plateau model are not kept. `plateau` is the sorted rank after finish().
+  struct SegmentMeans {
+    int segment = -1;
+    int plateau = -1;
+    long long n = 0;
+    std::array<Eigen::VectorXd, kNumChannels> sphi;
+    std::array<double, kNumChannels> sz{};
+    std::array<bool, kNumChannels> has{};
+  };
+  const std::vector<SegmentMeans>& segment_means() const { return seg_means_; }
   // Dwell rows left out by the dwell guard (DwellGuard, model "dwell_guard_s"), and that guard.
   long long guarded_samples() const { return guard_.dropped(); }
   double dwell_guard_s() const { return guard_.guard_s(); }
@@ -310,6 +323,8 @@ class FixtureAccumulator {
   std::vector<PlateauInfo> plateaus_sorted_;
   std::vector<int> discovery_to_sorted_;
   std::map<int, SegmentSummary> segments_;
+  std::vector<SegmentMeans> seg_means_;
+  std::array<std::array<int, 3>, 2> bias_local_{{{-1, -1, -1}, {-1, -1, -1}}};  // local index of bias.<axis>, −1: none
   // Within-block variance pools: [0] blocks whose die temperature spans ≤ kNoiseBlockSpan_C (dwells),
   // [1] all blocks. A linear trend in T removes a dwell's drift, not the curvature of a ramp across tens
   // of °C, so ramps and soaks after a step only count when there are too few dwells.
@@ -330,6 +345,33 @@ struct FixtureSolution {
   double chi2 = 0.0;      // weighted residual sum of squares
   long long samples = 0;
 };
+
+// How the dwell means scatter about the fit, per channel: Σ_s n_s r̄_s² / σ² over the dwells, divided by its
+// degrees of freedom (dwells − the parameters that act on the channel), r̄_s the dwell's mean residual at the
+// slot-space estimate theta. 1 for white noise; above 1 when the noise wanders between dwells (bias
+// instability, random walk) or the model misses a dwell-to-dwell effect, by the factor the dwell means'
+// variance exceeds σ²/n. NaN for a channel without a bias term or without dwells to spare. acc finished;
+// O(dwells × parameters).
+struct SegmentScatter {
+  std::array<double, kNumChannels> ratio{};
+  std::array<int, kNumChannels> dof{};
+};
+SegmentScatter segment_scatter(const FixtureAccumulator& acc, const Eigen::VectorXd& theta, const Sigma6& sigma);
+// Whether a ratio is past white noise's spread: > 1 + 3·sqrt(2/dof) (the χ² test at about 3σ).
+bool scatter_significant(double ratio, int dof);
+// The per-channel σ under which the dwell means scatter as white noise would: σ·sqrt(ratio) on a channel whose
+// ratio is significant, σ elsewhere. Solving with it leaves the estimate where it was (each parameter acts on
+// one channel) and widens the covariance of the parameters on that channel by sqrt(ratio): the right factor
+// for a random offset per dwell, an approximation for a drift correlated across neighbouring dwells. Off
+// with the model's "dwell_scatter": false (dwell_scatter_of).
+Sigma6 dwell_widened_sigma(const SegmentScatter& sc, const Sigma6& sigma);
+bool dwell_scatter_of(const model::ModelSpec& spec);
+// solve_fixture, then again with dwell_widened_sigma where the dwell means scatter past white noise, unless the
+// model says "dwell_scatter": false. The solution's noise_sigma stays `sigma`. `scatter` (optional) receives the
+// ratios, `widened` the σ behind the covariance. Every fixture-mode solve that reports σ goes through here
+// (`imuforge solve`, the end-of-line batch, the Python module).
+FixtureSolution solve_fixture_widened(const FixtureAccumulator& acc, const Sigma6& sigma, SegmentScatter* scatter = nullptr,
+                                      Sigma6* widened = nullptr);
 
 // Solves; throws SolverError naming unobservable combinations on rank deficiency.
 FixtureSolution solve_fixture(const FixtureAccumulator& acc, const Sigma6& sigma);

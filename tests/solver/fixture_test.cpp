@@ -719,4 +719,107 @@ TEST(DwellGuard, TimingShiftUpToTheGuardDoesNotBiasTheGyroScale) {
     if (shift_s != 0.0) EXPECT_GT(worst_gyro_scale_error_sigma(run, 0.0), 20.0) << shift_s;
   }
 }
+
+// The dwell-mean scatter: 1 within its χ² spread on white noise; 1 + n·τ²/σ² when every dwell carries a
+// random offset of σ τ on one axis (bias that wanders between dwells), and only on that axis.
+TEST(FixtureMode, DwellScatterReadsARandomOffsetPerDwell) {
+  synth::Config cfg;
+  cfg.plateaus_C = {10, 25, 40};
+  const auto spec = thermal_spec();
+  const auto truth = synth::truth_params();
+  const Sigma6 sig = sigma_of(cfg);
+  const double tau = 3e-4;  // rad/s on gyro.x, σ 1e-3 per sample, 100 samples per dwell: expect 1 + 9
+  for (bool offsets : {false, true}) {
+    std::mt19937_64 rng(21);
+    std::normal_distribution<double> n01;
+    FixtureAccumulator acc(spec, synth::meta(cfg));
+    const double lsb = synth::meta(cfg).gyro_lsb_rad_s;
+    int seg = -1;
+    double off = 0.0;
+    synth::generate(cfg, truth, 8, [&](const io::LogRow& r0) {
+      io::LogRow r = r0;
+      if (offsets && r.segment >= 0) {
+        if (r.segment != seg) {
+          seg = r.segment;
+          off = tau * n01(rng);
+        }
+        r.raw[3] += static_cast<std::int32_t>(std::lround(off / lsb));
+      }
+      acc.add(r);
+    });
+    acc.finish();
+    const FixtureSolution sol = solve_fixture(acc, sig);
+    const SegmentScatter sc = segment_scatter(acc, sol.estimate.value, sig);
+    for (int c = 0; c < kNumChannels; ++c) {
+      const double spread = 4.0 * std::sqrt(2.0 / sc.dof[size_t(c)]);
+      ASSERT_GT(sc.dof[size_t(c)], 30) << c;
+      const double want = (offsets && c == 3) ? 1.0 + cfg.samples_per_dwell * tau * tau / (sig[3] * sig[3]) : 1.0;
+      EXPECT_NEAR(sc.ratio[size_t(c)] / want, 1.0, spread) << channel_name(c) << " offsets " << offsets;
+    }
+  }
+}
+
+// The widened σ covers: 200 runs with a random offset per dwell on gyro.x (τ = 3e-4 rad/s, 9× σ²/n). The
+// parameters acting on gyro.x scatter about the truth by their widened σ (RMS z within 0.8–1.25); with σ from
+// the white static noise alone they scatter ~3× it. Nothing moves on the other channels, and the estimate is
+// the same either way.
+TEST(FixtureMode, WidenedSigmaCoversARandomOffsetPerDwell) {
+  synth::Config cfg;
+  cfg.plateaus_C = {10, 25, 40};
+  const auto spec = thermal_spec();
+  nlohmann::json off_j = nlohmann::json::parse(std::ifstream(IMUFORGE_SOURCE_DIR "/docs/examples/model-thermal.json"));
+  off_j["dwell_scatter"] = false;
+  const auto spec_white = synth::unguarded(model::model_spec_from_json(off_j));
+  const auto truth = synth::truth_params();
+  const Sigma6 sig = sigma_of(cfg);
+  const double tau = 3e-4;
+  const double lsb = synth::meta(cfg).gyro_lsb_rad_s;
+  double zz_wide = 0, zz_white = 0, zz_other = 0;
+  int n_x = 0, n_other = 0;
+  for (int run = 0; run < 200; ++run) {
+    std::mt19937_64 rng(1000 + run);
+    std::normal_distribution<double> n01;
+    FixtureAccumulator acc(spec, synth::meta(cfg)), acc_white(spec_white, synth::meta(cfg));
+    int seg = -1;
+    double off = 0.0;
+    synth::generate(cfg, truth, 500 + std::uint64_t(run), [&](const io::LogRow& r0) {
+      io::LogRow r = r0;
+      if (r.segment >= 0) {
+        if (r.segment != seg) {
+          seg = r.segment;
+          off = tau * n01(rng);
+        }
+        r.raw[3] += static_cast<std::int32_t>(std::lround(off / lsb));
+      }
+      acc.add(r);
+      acc_white.add(r);
+    });
+    acc.finish();
+    acc_white.finish();
+    Sigma6 widened{};
+    const FixtureSolution wide = solve_fixture_widened(acc, sig, nullptr, &widened);
+    const FixtureSolution white = solve_fixture_widened(acc_white, sig);
+    ASSERT_GT(widened[3], 2.0 * sig[3]) << run;
+    for (size_t i = 0; i < wide.estimate.names.size(); ++i) {
+      const std::string& nm = wide.estimate.names[i];
+      const auto& pi = model::param_info(model::find_param(nm));
+      const double err = wide.estimate.value[long(i)] - truth.get(nm);
+      ASSERT_NEAR(wide.estimate.value[long(i)], white.estimate.value[long(i)], 1e-9 * wide.estimate.sigma()[long(i)]) << nm;
+      if (pi.sensor == model::Sensor::kGyro && pi.j == 0) {
+        zz_wide += std::pow(err / wide.estimate.sigma()[long(i)], 2);
+        zz_white += std::pow(err / white.estimate.sigma()[long(i)], 2);
+        ++n_x;
+      } else {
+        zz_other += std::pow(err / wide.estimate.sigma()[long(i)], 2);
+        ++n_other;
+      }
+    }
+  }
+  const double rms_wide = std::sqrt(zz_wide / n_x), rms_white = std::sqrt(zz_white / n_x), rms_other = std::sqrt(zz_other / n_other);
+  EXPECT_GT(rms_wide, 0.8);
+  EXPECT_LT(rms_wide, 1.25);
+  EXPECT_GT(rms_white, 2.0);
+  EXPECT_GT(rms_other, 0.8);
+  EXPECT_LT(rms_other, 1.25);
+}
 }  // namespace solver_fixture_test
