@@ -79,6 +79,7 @@ void solve_one(const BatchUnit& u, const StationConfig& st, const model::ModelSp
       cal["parameters"].push_back(p);
     }
     cal["fixture_tolerance"] = us.fixture_section;
+    cal["dwell_scatter"] = us.dwell_scatter;
     out.cal = cal;
   } catch (const std::exception& e) {
     out.solved = false;
@@ -106,7 +107,9 @@ UnitSolve solve_unit_log(const std::string& log_path, const StationConfig& st, c
   // As `imuforge solve`: σ widened on a channel whose dwell means scatter past white noise (docs/calibration.md,
   // "Dwell scatter"), so a drifting unit's σ, and its pass against a σ spec, are not claimed from white noise.
   solver::Sigma6 widened = noise;
-  us.estimate = solver::solve_fixture_widened(acc, noise, nullptr, &widened).estimate;
+  solver::SegmentScatter sc;
+  us.estimate = solver::solve_fixture_widened(acc, noise, &sc, &widened).estimate;
+  us.dwell_scatter = solver::dwell_scatter_json(sc, solver::dwell_scatter_of(spec), noise, widened);
   noise = widened;  // the fixture tolerance's consider pass on the same σ as the covariance
   us.fixture_section = solver::fixture_tolerance_not_stated();
   if (st.fixture_tolerance.is_null()) return us;

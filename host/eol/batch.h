@@ -31,6 +31,7 @@ struct UnitSolve {
   Eigen::VectorXd sigma_noise;        // noise-only σ when the tolerance widened the covariance
   nlohmann::json fixture_section;     // cal.json "fixture_tolerance"
   std::string consider_error;         // non-empty: the stated tolerance could not be propagated
+  nlohmann::json dwell_scatter;       // cal.json "dwell_scatter" (solver::dwell_scatter_json)
 };
 // Throws solver::SolverError when the fixture solve is refused, io errors when the log cannot be read.
 UnitSolve solve_unit_log(const std::string& log_path, const StationConfig& station, const model::ModelSpec& spec,

@@ -622,6 +622,7 @@ RunResult Runner::run() {
   std::string solve_note = "srif";
   Eigen::VectorXd sigma_noise;  // noise-only σ when the fixture tolerance widened est's covariance
   json fixture_section = solver::fixture_tolerance_not_stated();
+  json dwell_scatter;  // null: the batch solve was not used
   std::string consider_error;
   try {
     UnitSolve us = solve_unit_log(log_path, st, spec, camp);
@@ -629,6 +630,7 @@ RunResult Runner::run() {
       est = us.estimate;
       sigma_noise = us.sigma_noise;
       fixture_section = us.fixture_section;
+      dwell_scatter = us.dwell_scatter;
       consider_error = us.consider_error;
       solve_note = "batch fixture mode (host/solver)";
     } else {
@@ -665,6 +667,7 @@ RunResult Runner::run() {
       cal["parameters"].push_back(p);
     }
     cal["fixture_tolerance"] = fixture_section;
+    cal["dwell_scatter"] = dwell_scatter;
     if (solvable) {
       json cov = json::array();
       for (int i = 0; i < n; ++i) {

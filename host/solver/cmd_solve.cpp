@@ -368,21 +368,14 @@ int run_solve(int argc, char** argv) {
     }
     if (have_inverse) {
       const bool widen = dwell_scatter_of(spec);
-      nlohmann::json jsc = {{"widened", widen}};
+      const nlohmann::json jsc = dwell_scatter_json(sc, widen, sigma, sigma_cov);
       std::string loud;
-      for (int c = 0; c < kNumChannels; ++c) {
-        const double r = sc.ratio[static_cast<size_t>(c)];
-        const int dof = sc.dof[static_cast<size_t>(c)];
-        if (!std::isfinite(r)) continue;
-        const bool sig = scatter_significant(r, dof);
-        jsc[channel_name(c)] = {{"ratio", r}, {"dof", dof}, {"significant", sig}};
-        if (sig) {
+      for (int c = 0; c < kNumChannels; ++c)
+        if (scatter_significant(sc.ratio[static_cast<size_t>(c)], sc.dof[static_cast<size_t>(c)])) {
           char b[64];
-          std::snprintf(b, sizeof b, "%s%s %.3g", loud.empty() ? "" : ", ", channel_name(c), r);
+          std::snprintf(b, sizeof b, "%s%s %.3g", loud.empty() ? "" : ", ", channel_name(c), sc.ratio[static_cast<size_t>(c)]);
           loud += b;
         }
-      }
-      if (sigma_cov != sigma) jsc["sigma_widened"] = std::vector<double>(sigma_cov.begin(), sigma_cov.end());
       res.extra["dwell_scatter"] = jsc;
       if (!loud.empty())
         std::printf("dwell scatter: the dwell means scatter more than white noise lets them (%s x the variance: bias drift "

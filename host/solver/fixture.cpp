@@ -757,6 +757,18 @@ FixtureSolution solve_fixture_widened(const FixtureAccumulator& acc, const Sigma
   return w;
 }
 
+nlohmann::json dwell_scatter_json(const SegmentScatter& sc, bool widen, const Sigma6& sigma, const Sigma6& widened) {
+  nlohmann::json j = {{"widened", widen}};
+  for (int c = 0; c < kNumChannels; ++c) {
+    const double r = sc.ratio[static_cast<size_t>(c)];
+    if (!std::isfinite(r)) continue;
+    j[channel_name(c)] = {{"ratio", r}, {"dof", sc.dof[static_cast<size_t>(c)]},
+                          {"significant", scatter_significant(r, sc.dof[static_cast<size_t>(c)])}};
+  }
+  if (widened != sigma) j["sigma_widened"] = std::vector<double>(widened.begin(), widened.end());
+  return j;
+}
+
 FixtureSolution solve_fixture(const FixtureAccumulator& acc, const Sigma6& sigma) {
   for (int c = 0; c < kNumChannels; ++c)
     if (!(sigma[static_cast<size_t>(c)] > 0) || !std::isfinite(sigma[static_cast<size_t>(c)]))

@@ -372,6 +372,9 @@ bool dwell_scatter_of(const model::ModelSpec& spec);
 // (`imuforge solve`, the end-of-line batch, the Python module).
 FixtureSolution solve_fixture_widened(const FixtureAccumulator& acc, const Sigma6& sigma, SegmentScatter* scatter = nullptr,
                                       Sigma6* widened = nullptr);
+// cal.json's "dwell_scatter": {"widened": bool, "<channel>": {ratio, dof, significant}, …, "sigma_widened": [6]
+// when any σ was widened}. The same section from `imuforge solve` and the end-of-line runner.
+nlohmann::json dwell_scatter_json(const SegmentScatter& sc, bool widen, const Sigma6& sigma, const Sigma6& widened);
 
 // Solves; throws SolverError naming unobservable combinations on rank deficiency.
 FixtureSolution solve_fixture(const FixtureAccumulator& acc, const Sigma6& sigma);

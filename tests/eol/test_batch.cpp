@@ -241,6 +241,18 @@ TEST(Batch, CommandLine) {
   EXPECT_NE(out.find("slot04   SN-103       FAIL  no calibration"), std::string::npos) << out;
   EXPECT_NE(out.find("batch record"), std::string::npos) << out;
   EXPECT_TRUE(fs::exists(b.dir / "out" / "slot01" / "cal.json"));
+  {
+    // The unit's cal.json says how its dwell means scatter, as `imuforge solve` does (docs/calibration.md).
+    std::ifstream cf(b.dir / "out" / "slot01" / "cal.json");
+    const json cal = json::parse(cf);
+    ASSERT_TRUE(cal.contains("dwell_scatter")) << cal.dump();
+    EXPECT_TRUE(cal["dwell_scatter"]["widened"].get<bool>());
+    for (const char* ch : {"accel.x", "gyro.z"}) {
+      ASSERT_TRUE(cal["dwell_scatter"].contains(ch)) << ch;
+      EXPECT_GT(cal["dwell_scatter"][ch]["dof"].get<int>(), 0) << ch;
+      EXPECT_GT(cal["dwell_scatter"][ch]["ratio"].get<double>(), 0.0) << ch;
+    }
+  }
   EXPECT_FALSE(fs::exists(b.dir / "out" / "slot04"));
   EXPECT_TRUE(fs::exists(b.dir / "out" / "batch-report.html"));
   std::ifstream bj(b.dir / "out" / "batch.json");
