@@ -389,7 +389,7 @@ int run_diagnose(int argc, char** argv) {
       // not cover (the largest |λ + 1e-6·ε·t| over the log, at either end) gets a guard 1.5× that, in 0.1 s.
       {
         const double shift_s = diagnosis::max_timing_shift_s(r);
-        const double guard_s = mj.value("dwell_guard_s", solver::kDefaultDwellGuard_s);
+        const double guard_s = solver::dwell_guard_of(model::model_spec_from_json(mj));
         if (guard_s > 0 && shift_s > 0.8 * guard_s) {
           const double g = std::ceil(15.0 * shift_s) / 10.0;
           mj["dwell_guard_s"] = g;

@@ -28,6 +28,15 @@ constexpr double kNoiseBlockSpan_C = 1.0;
 // Degrees of freedom the dwell-only pool needs before it is preferred.
 constexpr long long kNoiseMinDof = 100;
 
+// The streaming stages (CenteredTempRate, DwellGuard) need rows in time order with finite stamps.
+void check_time_order(double t_s, double last_t_s, const char* stage) {
+  if (!std::isfinite(t_s))
+    throw SolverError("log row after t=" + std::to_string(last_t_s) + " s has a non-finite time stamp");
+  if (t_s < last_t_s)
+    throw SolverError("log time goes backwards (" + std::to_string(t_s) + " s after " + std::to_string(last_t_s) +
+                      " s): " + stage + " needs rows in time order");
+}
+
 bool is_temperature_effect(Effect e) {
   return e == Effect::kBiasTemp || e == Effect::kScaleTemp || e == Effect::kMisalignTemp;
 }
@@ -54,11 +63,7 @@ void CenteredTempRate::release(std::size_t i, double t_hi, double T_hi) {
 
 void CenteredTempRate::push(const io::LogRow& row) {
   if (closed_) throw SolverError("CenteredTempRate::push after close()");
-  if (!std::isfinite(row.t_s))
-    throw SolverError("log row after t=" + std::to_string(last_t_) + " s has a non-finite time stamp");
-  if (row.t_s < last_t_)
-    throw SolverError("log time goes backwards (" + std::to_string(row.t_s) + " s after " + std::to_string(last_t_) +
-                      " s): dT/dt needs rows in time order");
+  check_time_order(row.t_s, last_t_, "dT/dt");
   // Rows whose upper window edge this row passes are final: their last row at ≤ t_i + window is the
   // previous row (it did not release them when it arrived, so its t ≤ t_i + window).
   while (n_ready_ < rows_.size() && rows_[n_ready_].t_s + window_s_ < row.t_s) {
@@ -120,11 +125,7 @@ bool DwellGuard::differs(const Ref& a, const Ref& b) {
 
 void DwellGuard::push(const io::LogRow& row, double Tdot_C_s) {
   if (closed_) throw SolverError("DwellGuard::push after close()");
-  if (!std::isfinite(row.t_s))
-    throw SolverError("log row after t=" + std::to_string(last_t_) + " s has a non-finite time stamp");
-  if (row.t_s < last_t_)
-    throw SolverError("log time goes backwards (" + std::to_string(row.t_s) + " s after " + std::to_string(last_t_) +
-                      " s): the dwell guard needs rows in time order");
+  check_time_order(row.t_s, last_t_, "the dwell guard");
   last_t_ = row.t_s;
   if (guard_s_ == 0) {
     pending_.push_back({row, Tdot_C_s, -1});
@@ -505,14 +506,12 @@ void FixtureAccumulator::flush_segment() {
   segments_[seg_sum_.segment] = seg_sum_;
   {
     SegmentMeans m;
-    m.segment = seg_sum_.segment;
     m.plateau = p;
     m.n = seg_sum_.n;
     for (int c = 0; c < kNumChannels; ++c) {
       const int ib = bias_local_[static_cast<size_t>(c / 3)][static_cast<size_t>(c % 3)];
       if (ib < 0) continue;
       const ChannelStats& st = seg_stats_[static_cast<size_t>(c)];
-      m.has[static_cast<size_t>(c)] = true;
       m.sphi[static_cast<size_t>(c)] = st.a.col(ib);
       m.sz[static_cast<size_t>(c)] = st.b[ib];
     }
@@ -702,7 +701,7 @@ SegmentScatter segment_scatter(const FixtureAccumulator& acc, const Eigen::Vecto
     int dwells = 0;
     std::vector<bool> acts(static_cast<size_t>(nl), false);
     for (const auto& m : acc.segment_means()) {
-      if (!m.has[static_cast<size_t>(c)] || m.n == 0) continue;
+      if (m.sphi[static_cast<size_t>(c)].size() == 0 || m.n == 0) continue;  // no bias term on this channel
       const Eigen::VectorXd& sp = m.sphi[static_cast<size_t>(c)];
       double pred = 0.0;
       for (int i = 0; i < nl; ++i) {

@@ -256,15 +256,13 @@ class FixtureAccumulator {
   long long samples_used() const { return samples_used_; }
   // Per dwell (segment) and channel: samples, Σφ and Σz, where φ is the channel's regressor row in the
   // sensor's local space. Σφ is the bias column of the segment's A (the bias regressor is 1), so it costs
-  // nothing to keep; `has[c]` is false when the model has no bias on that channel. Transit segments of a
-  // per-plateau model are not kept. `plateau` is the sorted rank after finish().
+  // nothing to keep; sphi[c] is empty when the model has no (shared) bias on that channel. Transit segments of
+  // a per-plateau model are not kept. `plateau` is the sorted rank after finish().
   struct SegmentMeans {
-    int segment = -1;
     int plateau = -1;
     long long n = 0;
     std::array<Eigen::VectorXd, kNumChannels> sphi;
     std::array<double, kNumChannels> sz{};
-    std::array<bool, kNumChannels> has{};
   };
   const std::vector<SegmentMeans>& segment_means() const { return seg_means_; }
   // Dwell rows left out by the dwell guard (DwellGuard, model "dwell_guard_s"), and that guard.
