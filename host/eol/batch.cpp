@@ -104,13 +104,12 @@ UnitSolve solve_unit_log(const std::string& log_path, const StationConfig& st, c
   if (st.gyro_noise_rad_s > 0)
     for (int c = 3; c < 6; ++c) noise[static_cast<std::size_t>(c)] = st.gyro_noise_rad_s;
   UnitSolve us;
-  // As `imuforge solve`: σ widened on a channel whose dwell means scatter past white noise (docs/calibration.md,
-  // "Dwell scatter"), so a drifting unit's σ, and its pass against a σ spec, are not claimed from white noise.
-  solver::Sigma6 widened = noise;
+  // As `imuforge solve`: the covariance carries the dwell means' drift (docs/calibration.md, "Dwell drift"), so a
+  // drifting unit's σ, and its pass against a σ spec, are not claimed from white noise.
   solver::SegmentScatter sc;
-  us.estimate = solver::solve_fixture_widened(acc, noise, &sc, &widened).estimate;
-  us.dwell_scatter = solver::dwell_scatter_json(sc, solver::dwell_scatter_of(spec), noise, widened);
-  noise = widened;  // the fixture tolerance's consider pass on the same σ as the covariance
+  solver::ChannelDrifts drifts;
+  us.estimate = solver::solve_fixture_widened(acc, noise, &sc, &drifts).estimate;
+  us.dwell_scatter = solver::dwell_scatter_json(sc, solver::dwell_scatter_of(spec), drifts);
   us.fixture_section = solver::fixture_tolerance_not_stated();
   if (st.fixture_tolerance.is_null()) return us;
   try {

@@ -355,12 +355,12 @@ int run_solve(int argc, char** argv) {
     bool have_inverse = false;
     std::string inverse_error;
     // σ from the static noise assumes it white from dwell to dwell. Bias instability, a random walk or an effect
-    // the model lacks make the dwell means scatter more: on such a channel σ is widened to what the scatter shows
-    // (docs/calibration.md, "Dwell scatter"); the estimate does not move.
+    // the model lacks make the dwell means wander: on such a channel the covariance carries the wander fitted to
+    // the dwell means (docs/calibration.md, "Dwell drift"); the estimate does not move.
     SegmentScatter sc;
-    Sigma6 sigma_cov = sigma;  // the σ behind the covariance
+    ChannelDrifts drifts;
     try {
-      sol = solve_fixture_widened(acc, sigma, &sc, &sigma_cov);
+      sol = solve_fixture_widened(acc, sigma, &sc, &drifts);
       have_inverse = true;
     } catch (const SolverError& e) {
       if (a.method == "inverse") throw;
@@ -368,19 +368,20 @@ int run_solve(int argc, char** argv) {
     }
     if (have_inverse) {
       const bool widen = dwell_scatter_of(spec);
-      const nlohmann::json jsc = dwell_scatter_json(sc, widen, sigma, sigma_cov);
+      res.extra["dwell_scatter"] = dwell_scatter_json(sc, widen, drifts);
       std::string loud;
-      for (int c = 0; c < kNumChannels; ++c)
-        if (scatter_significant(sc.ratio[static_cast<size_t>(c)], sc.dof[static_cast<size_t>(c)])) {
-          char b[64];
-          std::snprintf(b, sizeof b, "%s%s %.3g", loud.empty() ? "" : ", ", channel_name(c), sc.ratio[static_cast<size_t>(c)]);
-          loud += b;
-        }
-      res.extra["dwell_scatter"] = jsc;
+      for (int c = 0; c < kNumChannels; ++c) {
+        const estimator::DwellDrift& d = drifts[static_cast<size_t>(c)];
+        if (!d.adopted) continue;
+        char b[160];
+        std::snprintf(b, sizeof b, "%s%s (offsets σ %.3g, wander σ %.3g over τ %.0f s)", loud.empty() ? "" : ", ",
+                      channel_name(c), std::sqrt(d.offset_var), std::sqrt(d.gm_var), d.gm_tau_s);
+        loud += b;
+      }
       if (!loud.empty())
-        std::printf("dwell scatter: the dwell means scatter more than white noise lets them (%s x the variance: bias drift "
-                    "or an effect the model lacks); %s\n",
-                    loud.c_str(), widen ? "σ on those axes widened by the square root" : "σ NOT widened (\"dwell_scatter\": false)");
+        std::printf("dwell drift: the dwell means wander past white noise on %s; σ carries it\n", loud.c_str());
+      else if (!widen)
+        std::printf("dwell drift: not fitted (\"dwell_scatter\": false); σ from white noise alone\n");
     }
     if (oc) {
       const Estimate rec = oc->estimate();
@@ -450,7 +451,7 @@ int run_solve(int argc, char** argv) {
       for (int c = 0; c < kNumChannels; ++c)
         std::printf("  %-8s noise σ %.3e  residual RMS %.3e\n", channel_name(c), sol.noise_sigma[static_cast<size_t>(c)],
                     sol.residual_rms[static_cast<size_t>(c)]);
-      apply_fixture_tolerance(res, log, spec, a, sigma_cov);
+      apply_fixture_tolerance(res, log, spec, a, sigma);
       print_estimate(res.estimate, true, res.sigma_noise);
     }
   }

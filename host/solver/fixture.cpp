@@ -316,6 +316,7 @@ void FixtureAccumulator::process(const io::LogRow& row, double Tdot_C_s, bool ke
     seg_sum_.segment = row.segment;
     seg_y_sum_.setZero();
     seg_y_sq_.setZero();
+    seg_t_sum_s_ = 0.0;
     seg_T_min_C_ = std::numeric_limits<double>::infinity();
     seg_T_max_C_ = -std::numeric_limits<double>::infinity();
     for (int c = 0; c < kNumChannels; ++c) seg_stats_[static_cast<size_t>(c)].reset(static_cast<int>(ids_[static_cast<size_t>(c / 3)].size()));
@@ -361,6 +362,7 @@ void FixtureAccumulator::process(const io::LogRow& row, double Tdot_C_s, bool ke
   }
   seg_sum_.n += 1;
   seg_sum_.T_C += T;
+  seg_t_sum_s_ += row.t_s;
   seg_T_min_C_ = std::min(seg_T_min_C_, T);
   seg_T_max_C_ = std::max(seg_T_max_C_, T);
   for (int k = 0; k < 3; ++k) {
@@ -508,6 +510,7 @@ void FixtureAccumulator::flush_segment() {
     SegmentMeans m;
     m.plateau = p;
     m.n = seg_sum_.n;
+    m.t_mid_s = seg_t_sum_s_ / n;
     for (int c = 0; c < kNumChannels; ++c) {
       const int ib = bias_local_[static_cast<size_t>(c / 3)][static_cast<size_t>(c % 3)];
       if (ib < 0) continue;
@@ -726,12 +729,81 @@ bool scatter_significant(double ratio, int dof) {
   return dof > 0 && std::isfinite(ratio) && ratio > 1.0 + 3.0 * std::sqrt(2.0 / dof);
 }
 
-Sigma6 dwell_widened_sigma(const SegmentScatter& sc, const Sigma6& sigma) {
-  Sigma6 out = sigma;
-  for (int c = 0; c < kNumChannels; ++c)
-    if (scatter_significant(sc.ratio[static_cast<size_t>(c)], sc.dof[static_cast<size_t>(c)]))
-      out[static_cast<size_t>(c)] *= std::sqrt(sc.ratio[static_cast<size_t>(c)]);
+namespace {
+
+// One channel's dwells for the drift model: times, means, the mean regressors on the slots that act on the
+// channel, and (for the covariance) the weighted per-dwell sums G.
+struct ChannelDwells {
+  estimator::DwellSeries series;
+  Eigen::MatrixXd G;
+  std::vector<int> cols;
+};
+
+ChannelDwells channel_dwells(const FixtureAccumulator& acc, int c, double sigma) {
+  ChannelDwells out;
+  const int s = c / 3;
+  const int nl = static_cast<int>(acc.sensor_ids(static_cast<Sensor>(s)).size());
+  const int np = std::max(static_cast<int>(acc.plateaus().size()), 1);
+  std::map<int, int> col_of;  // slot → column
+  std::vector<const FixtureAccumulator::SegmentMeans*> ms;
+  for (const auto& m : acc.segment_means()) {
+    if (m.sphi[static_cast<size_t>(c)].size() == 0 || m.n == 0) continue;
+    ms.push_back(&m);
+    for (int i = 0; i < nl; ++i)
+      if (m.sphi[static_cast<size_t>(c)][i] != 0.0) col_of.emplace(acc.slot(s, i, m.plateau < 0 ? 0 : m.plateau, np), 0);
+  }
+  int j = 0;
+  for (auto& kv : col_of) {
+    kv.second = j++;
+    out.cols.push_back(kv.first);
+  }
+  const Eigen::Index S = static_cast<Eigen::Index>(ms.size());
+  out.series.t_s.resize(static_cast<size_t>(S));
+  out.series.y.resize(S);
+  out.series.X = Eigen::MatrixXd::Zero(S, j);
+  out.series.white_var.resize(S);
+  out.G = Eigen::MatrixXd::Zero(S, j);
+  const double s2 = sigma * sigma;
+  for (Eigen::Index k = 0; k < S; ++k) {
+    const auto& m = *ms[static_cast<size_t>(k)];
+    const double n = static_cast<double>(m.n);
+    out.series.t_s[static_cast<size_t>(k)] = m.t_mid_s;
+    out.series.y[k] = m.sz[static_cast<size_t>(c)] / n;
+    out.series.white_var[k] = s2 / n;
+    const Eigen::VectorXd& sp = m.sphi[static_cast<size_t>(c)];
+    for (int i = 0; i < nl; ++i) {
+      if (sp[i] == 0.0) continue;
+      const int col = col_of.at(acc.slot(s, i, m.plateau < 0 ? 0 : m.plateau, np));
+      out.series.X(k, col) = sp[i] / n;
+      out.G(k, col) = sp[i] / s2;
+    }
+  }
   return out;
+}
+
+}  // namespace
+
+ChannelDrifts fit_channel_drifts(const FixtureAccumulator& acc, const Sigma6& sigma) {
+  ChannelDrifts out;
+  for (int c = 0; c < kNumChannels; ++c) {
+    const ChannelDwells d = channel_dwells(acc, c, sigma[static_cast<size_t>(c)]);
+    if (d.series.t_s.empty()) continue;
+    out[static_cast<size_t>(c)] = estimator::fit_dwell_drift(d.series);
+  }
+  return out;
+}
+
+Eigen::MatrixXd drift_widened_covariance(const FixtureAccumulator& acc, const Sigma6& sigma, const Eigen::MatrixXd& C0,
+                                         const ChannelDrifts& drifts) {
+  std::array<ChannelDwells, kNumChannels> dw;
+  std::vector<estimator::ChannelDrift> chans;
+  for (int c = 0; c < kNumChannels; ++c) {
+    if (!drifts[static_cast<size_t>(c)].adopted) continue;
+    dw[static_cast<size_t>(c)] = channel_dwells(acc, c, sigma[static_cast<size_t>(c)]);
+    const ChannelDwells& d = dw[static_cast<size_t>(c)];
+    chans.push_back({&drifts[static_cast<size_t>(c)], &d.series.t_s, d.G, d.cols});
+  }
+  return estimator::drift_covariance(C0, chans);
 }
 
 bool dwell_scatter_of(const model::ModelSpec& spec) {
@@ -743,28 +815,33 @@ bool dwell_scatter_of(const model::ModelSpec& spec) {
 }
 
 FixtureSolution solve_fixture_widened(const FixtureAccumulator& acc, const Sigma6& sigma, SegmentScatter* scatter,
-                                      Sigma6* widened) {
+                                      ChannelDrifts* drifts) {
   FixtureSolution sol = solve_fixture(acc, sigma);
-  const SegmentScatter sc = segment_scatter(acc, sol.estimate.value, sigma);
-  if (scatter) *scatter = sc;
-  Sigma6 wide = sigma;
-  if (dwell_scatter_of(acc.spec())) wide = dwell_widened_sigma(sc, sigma);
-  if (widened) *widened = wide;
-  if (wide == sigma) return sol;
-  FixtureSolution w = solve_fixture(acc, wide);
-  w.noise_sigma = sigma;
-  return w;
+  if (scatter) *scatter = segment_scatter(acc, sol.estimate.value, sigma);
+  if (!dwell_scatter_of(acc.spec())) {
+    if (drifts) *drifts = ChannelDrifts{};
+    return sol;
+  }
+  const ChannelDrifts dr = fit_channel_drifts(acc, sigma);
+  if (drifts) *drifts = dr;
+  sol.estimate.covariance = drift_widened_covariance(acc, sigma, sol.estimate.covariance, dr);
+  return sol;
 }
 
-nlohmann::json dwell_scatter_json(const SegmentScatter& sc, bool widen, const Sigma6& sigma, const Sigma6& widened) {
+nlohmann::json dwell_scatter_json(const SegmentScatter& sc, bool widen, const ChannelDrifts& drifts) {
   nlohmann::json j = {{"widened", widen}};
   for (int c = 0; c < kNumChannels; ++c) {
     const double r = sc.ratio[static_cast<size_t>(c)];
     if (!std::isfinite(r)) continue;
-    j[channel_name(c)] = {{"ratio", r}, {"dof", sc.dof[static_cast<size_t>(c)]},
-                          {"significant", scatter_significant(r, sc.dof[static_cast<size_t>(c)])}};
+    nlohmann::json e = {{"ratio", r}, {"dof", sc.dof[static_cast<size_t>(c)]},
+                        {"significant", scatter_significant(r, sc.dof[static_cast<size_t>(c)])}};
+    const estimator::DwellDrift& d = drifts[static_cast<size_t>(c)];
+    if (d.dwells > 0)
+      e["drift"] = {{"adopted", d.adopted},        {"gain", d.gain},
+                    {"offset_sigma", std::sqrt(d.offset_var)}, {"gm_sigma", std::sqrt(d.gm_var)},
+                    {"gm_tau_s", d.gm_tau_s},      {"plausible", d.plausible.size()}};
+    j[channel_name(c)] = e;
   }
-  if (widened != sigma) j["sigma_widened"] = std::vector<double>(widened.begin(), widened.end());
   return j;
 }
 

@@ -20,6 +20,7 @@
 
 #include <Eigen/Dense>
 
+#include "host/estimator/drift.h"
 #include "host/io/log.h"
 #include "host/model/catalog.h"
 #include "host/model/measure.h"
@@ -261,6 +262,7 @@ class FixtureAccumulator {
   struct SegmentMeans {
     int plateau = -1;
     long long n = 0;
+    double t_mid_s = 0.0;  // mean time of its kept rows (the dwell-drift model's dwell time)
     std::array<Eigen::VectorXd, kNumChannels> sphi;
     std::array<double, kNumChannels> sz{};
   };
@@ -314,6 +316,7 @@ class FixtureAccumulator {
   ChannelSet seg_stats_;
   SegmentSummary seg_sum_;
   Eigen::Matrix<double, 6, 1> seg_y_sum_, seg_y_sq_;
+  double seg_t_sum_s_ = 0.0;
 
   std::vector<ChannelSet> plateau_stats_;  // by discovery order
   std::vector<double> plateau_T_sum_;
@@ -357,22 +360,28 @@ struct SegmentScatter {
 SegmentScatter segment_scatter(const FixtureAccumulator& acc, const Eigen::VectorXd& theta, const Sigma6& sigma);
 // Whether a ratio is past white noise's spread: > 1 + 3·sqrt(2/dof) (the χ² test at about 3σ).
 bool scatter_significant(double ratio, int dof);
-// The per-channel σ under which the dwell means scatter as white noise would: σ·sqrt(ratio) on a channel whose
-// ratio is significant, σ elsewhere. Solving with it leaves the estimate where it was (each parameter acts on
-// one channel) and widens the covariance of the parameters on that channel by sqrt(ratio): the right factor
-// for a random offset per dwell, an approximation for a drift correlated across neighbouring dwells. Off
-// with the model's "dwell_scatter": false (dwell_scatter_of).
-Sigma6 dwell_widened_sigma(const SegmentScatter& sc, const Sigma6& sigma);
+// The dwell-to-dwell drift of each channel (estimator/drift.h): per channel, the dwell means' residual wander,
+// fitted by REML with the channel's columns profiled out. acc finished; a channel without a bias term, or with
+// too few dwells, gets no drift (adopted false). O(channels · grid · dwells · p²).
+using ChannelDrifts = std::array<estimator::DwellDrift, kNumChannels>;
+ChannelDrifts fit_channel_drifts(const FixtureAccumulator& acc, const Sigma6& sigma);
+// The covariance of the white-σ solve `sol` under those drifts (estimator::drift_covariance): the estimate is the
+// same, its covariance C0 + C0 Gᵀ C G C0 with G the per-dwell sums of the weighted regressors, per parameter the
+// largest over the drifts the dwell means do not reject.
+Eigen::MatrixXd drift_widened_covariance(const FixtureAccumulator& acc, const Sigma6& sigma, const Eigen::MatrixXd& C0,
+                                         const ChannelDrifts& drifts);
+// Whether the model lets the drift widen σ: its "dwell_scatter" (default true; false keeps the white σ).
 bool dwell_scatter_of(const model::ModelSpec& spec);
-// solve_fixture, then again with dwell_widened_sigma where the dwell means scatter past white noise, unless the
-// model says "dwell_scatter": false. The solution's noise_sigma stays `sigma`. `scatter` (optional) receives the
-// ratios, `widened` the σ behind the covariance. Every fixture-mode solve that reports σ goes through here
+// solve_fixture, then, unless the model says "dwell_scatter": false, the covariance widened by the channels'
+// adopted drifts (the estimate unchanged). The solution's noise_sigma stays `sigma`. `scatter` (optional) receives
+// the dwell-mean χ² ratios, `drifts` the fitted drifts. Every fixture-mode solve that reports σ goes through here
 // (`imuforge solve`, the end-of-line batch, the Python module).
 FixtureSolution solve_fixture_widened(const FixtureAccumulator& acc, const Sigma6& sigma, SegmentScatter* scatter = nullptr,
-                                      Sigma6* widened = nullptr);
-// cal.json's "dwell_scatter": {"widened": bool, "<channel>": {ratio, dof, significant}, …, "sigma_widened": [6]
-// when any σ was widened}. The same section from `imuforge solve` and the end-of-line runner.
-nlohmann::json dwell_scatter_json(const SegmentScatter& sc, bool widen, const Sigma6& sigma, const Sigma6& widened);
+                                      ChannelDrifts* drifts = nullptr);
+// cal.json's "dwell_scatter": {"widened": bool, "<channel>": {ratio, dof, significant, drift: {adopted, gain,
+// offset_sigma, gm_sigma, gm_tau_s, plausible}}, …}. The same section from `imuforge solve` and the end-of-line
+// runner.
+nlohmann::json dwell_scatter_json(const SegmentScatter& sc, bool widen, const ChannelDrifts& drifts);
 
 // Solves; throws SolverError naming unobservable combinations on rank deficiency.
 FixtureSolution solve_fixture(const FixtureAccumulator& acc, const Sigma6& sigma);
