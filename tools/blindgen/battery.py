@@ -248,6 +248,9 @@ def suite(name):
     if name == 'varied22':
         # the varied schedule at new seeds (24000+), added at stop 52 and run on the stop-51 binary before any change
         return varied_fresh(24000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2)
+    if name == 'varied23':
+        # the varied schedule at new seeds (25000+), added at stop 53 and run on the stop-52 diagnosis before any change
+        return varied_fresh(25000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2)
     if name != 'full':
         raise SystemExit('unknown suite ' + name)
     for s in range(1, 51):
@@ -614,7 +617,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'unseen', 'unseen2', 'unseen3'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'varied23', 'unseen', 'unseen2', 'unseen3'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')
