@@ -109,7 +109,7 @@ UnitSolve solve_unit_log(const std::string& log_path, const StationConfig& st, c
   solver::SegmentScatter sc;
   solver::ChannelDrifts drifts;
   us.estimate = solver::solve_fixture_widened(acc, noise, &sc, &drifts).estimate;
-  us.dwell_scatter = solver::dwell_scatter_json(sc, solver::dwell_scatter_of(spec), drifts);
+  us.dwell_scatter = solver::dwell_scatter_json(&sc, solver::dwell_scatter_of(spec), drifts);
   us.fixture_section = solver::fixture_tolerance_not_stated();
   if (st.fixture_tolerance.is_null()) return us;
   try {

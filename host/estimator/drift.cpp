@@ -178,7 +178,7 @@ DwellDrift fit_dwell_drift(const DwellSeries& s) {
   if (!dt.empty() && span > 0) {
     std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
     const double dt_med = dt[dt.size() / 2];
-    const double lt_hi = std::log(4.0 * span), lt_lo = std::log(std::max(dt_med / 4.0, 1e-3));
+    const double lt_hi = std::log(span), lt_lo = std::log(std::max(dt_med / 4.0, 1e-3));
     for (double lt = lt_hi; lt >= lt_lo; lt -= std::log(2.0))
       for (double la = -3.0; la <= 18.0; la += 1.5)
         for (double lb : {none, -3.0, 0.0, 3.0, 6.0, 9.0, 12.0}) {

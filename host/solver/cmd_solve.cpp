@@ -136,6 +136,25 @@ void apply_fixture_tolerance(CalibrationResult& res, io::LogReader& log, const m
   std::printf("fixture tolerance: %zu fixture parameters considered; σ covers noise and fixture\n", cr.considered.size());
 }
 
+// cal.json's "dwell_scatter" and one line on the channels whose drift between dwells σ carries
+// (docs/calibration.md, "Dwell drift"). sc: the dwell-mean ratios where the mode has them.
+void report_drift(CalibrationResult& res, const SegmentScatter* sc, const ChannelDrifts& drifts, bool widen) {
+  res.extra["dwell_scatter"] = dwell_scatter_json(sc, widen, drifts);
+  std::string loud;
+  for (int c = 0; c < kNumChannels; ++c) {
+    const estimator::DwellDrift& d = drifts[static_cast<size_t>(c)];
+    if (!d.adopted) continue;
+    char b[160];
+    std::snprintf(b, sizeof b, "%s%s (offsets σ %.3g, wander σ %.3g over τ %.0f s)", loud.empty() ? "" : ", ",
+                  channel_name(c), std::sqrt(d.offset_var), std::sqrt(d.gm_var), d.gm_tau_s);
+    loud += b;
+  }
+  if (!loud.empty())
+    std::printf("dwell drift: the dwell means wander past white noise on %s; σ carries it\n", loud.c_str());
+  else if (!widen)
+    std::printf("dwell drift: not fitted (\"dwell_scatter\": false); σ from white noise alone\n");
+}
+
 void write_json(const std::string& path, const nlohmann::json& j) {
   std::ofstream f(path);
   if (!f) throw SolverError("cannot write '" + path + "'");
@@ -303,6 +322,7 @@ int run_solve(int argc, char** argv) {
     if (!r.fixed.empty())
       std::printf("fixture+errors: fixed at 0 (inseparable from others): %s\n", nlohmann::json(r.fixed).dump().c_str());
     std::printf("fixture+errors: misalignment frame: %s\n", frame);
+    report_drift(res, nullptr, r.drifts, dwell_scatter_of(spec));
     apply_fixture_tolerance(res, log, spec, a, r.noise_sigma);
     print_estimate(res.estimate, true, res.sigma_noise);
   } else {
@@ -366,23 +386,7 @@ int run_solve(int argc, char** argv) {
       if (a.method == "inverse") throw;
       inverse_error = e.what();
     }
-    if (have_inverse) {
-      const bool widen = dwell_scatter_of(spec);
-      res.extra["dwell_scatter"] = dwell_scatter_json(sc, widen, drifts);
-      std::string loud;
-      for (int c = 0; c < kNumChannels; ++c) {
-        const estimator::DwellDrift& d = drifts[static_cast<size_t>(c)];
-        if (!d.adopted) continue;
-        char b[160];
-        std::snprintf(b, sizeof b, "%s%s (offsets σ %.3g, wander σ %.3g over τ %.0f s)", loud.empty() ? "" : ", ",
-                      channel_name(c), std::sqrt(d.offset_var), std::sqrt(d.gm_var), d.gm_tau_s);
-        loud += b;
-      }
-      if (!loud.empty())
-        std::printf("dwell drift: the dwell means wander past white noise on %s; σ carries it\n", loud.c_str());
-      else if (!widen)
-        std::printf("dwell drift: not fitted (\"dwell_scatter\": false); σ from white noise alone\n");
-    }
+    if (have_inverse) report_drift(res, &sc, drifts, dwell_scatter_of(spec));
     if (oc) {
       const Estimate rec = oc->estimate();
       double worst = 0;

@@ -729,82 +729,89 @@ bool scatter_significant(double ratio, int dof) {
   return dof > 0 && std::isfinite(ratio) && ratio > 1.0 + 3.0 * std::sqrt(2.0 / dof);
 }
 
-namespace {
-
-// One channel's dwells for the drift model: times, means, the mean regressors on the slots that act on the
-// channel, and (for the covariance) the weighted per-dwell sums G.
-struct ChannelDwells {
-  estimator::DwellSeries series;
-  Eigen::MatrixXd G;
-  std::vector<int> cols;
-};
-
-ChannelDwells channel_dwells(const FixtureAccumulator& acc, int c, double sigma) {
-  ChannelDwells out;
-  const int s = c / 3;
-  const int nl = static_cast<int>(acc.sensor_ids(static_cast<Sensor>(s)).size());
-  const int np = std::max(static_cast<int>(acc.plateaus().size()), 1);
-  std::map<int, int> col_of;  // slot → column
-  std::vector<const FixtureAccumulator::SegmentMeans*> ms;
-  for (const auto& m : acc.segment_means()) {
-    if (m.sphi[static_cast<size_t>(c)].size() == 0 || m.n == 0) continue;
-    ms.push_back(&m);
-    for (int i = 0; i < nl; ++i)
-      if (m.sphi[static_cast<size_t>(c)][i] != 0.0) col_of.emplace(acc.slot(s, i, m.plateau < 0 ? 0 : m.plateau, np), 0);
+DwellDriftInput dwell_drift_input(const std::vector<DwellSums>& dwells, double sigma) {
+  DwellDriftInput out;
+  std::vector<int> col_of;  // parameter index → column, −1: not acting on the channel
+  for (const DwellSums& d : dwells) {
+    if (col_of.size() < static_cast<size_t>(d.sphi.size())) col_of.resize(static_cast<size_t>(d.sphi.size()), -1);
+    for (Eigen::Index i = 0; i < d.sphi.size(); ++i)
+      if (d.sphi[i] != 0.0) col_of[static_cast<size_t>(i)] = 0;
   }
-  int j = 0;
-  for (auto& kv : col_of) {
-    kv.second = j++;
-    out.cols.push_back(kv.first);
-  }
-  const Eigen::Index S = static_cast<Eigen::Index>(ms.size());
+  for (size_t i = 0; i < col_of.size(); ++i)
+    if (col_of[i] == 0) {
+      col_of[i] = static_cast<int>(out.cols.size());
+      out.cols.push_back(static_cast<int>(i));
+    }
+  const Eigen::Index S = static_cast<Eigen::Index>(dwells.size()), p = static_cast<Eigen::Index>(out.cols.size());
   out.series.t_s.resize(static_cast<size_t>(S));
   out.series.y.resize(S);
-  out.series.X = Eigen::MatrixXd::Zero(S, j);
+  out.series.X = Eigen::MatrixXd::Zero(S, p);
   out.series.white_var.resize(S);
-  out.G = Eigen::MatrixXd::Zero(S, j);
+  out.G = Eigen::MatrixXd::Zero(S, p);
   const double s2 = sigma * sigma;
   for (Eigen::Index k = 0; k < S; ++k) {
-    const auto& m = *ms[static_cast<size_t>(k)];
-    const double n = static_cast<double>(m.n);
-    out.series.t_s[static_cast<size_t>(k)] = m.t_mid_s;
-    out.series.y[k] = m.sz[static_cast<size_t>(c)] / n;
+    const DwellSums& d = dwells[static_cast<size_t>(k)];
+    if (d.n <= 0) throw SolverError("dwell drift: a dwell without samples");
+    const double n = static_cast<double>(d.n);
+    out.series.t_s[static_cast<size_t>(k)] = d.t_mid_s;
+    out.series.y[k] = d.sz / n;
     out.series.white_var[k] = s2 / n;
-    const Eigen::VectorXd& sp = m.sphi[static_cast<size_t>(c)];
-    for (int i = 0; i < nl; ++i) {
-      if (sp[i] == 0.0) continue;
-      const int col = col_of.at(acc.slot(s, i, m.plateau < 0 ? 0 : m.plateau, np));
-      out.series.X(k, col) = sp[i] / n;
-      out.G(k, col) = sp[i] / s2;
+    for (Eigen::Index i = 0; i < d.sphi.size(); ++i) {
+      if (d.sphi[i] == 0.0) continue;
+      const int col = col_of[static_cast<size_t>(i)];
+      out.series.X(k, col) = d.sphi[i] / n;
+      out.G(k, col) = d.sphi[i] / s2;
     }
   }
   return out;
 }
 
-}  // namespace
-
-ChannelDrifts fit_channel_drifts(const FixtureAccumulator& acc, const Sigma6& sigma) {
+ChannelDrifts fit_drifts(const std::array<DwellDriftInput, kNumChannels>& in) {
   ChannelDrifts out;
+  for (int c = 0; c < kNumChannels; ++c)
+    if (!in[static_cast<size_t>(c)].series.t_s.empty())
+      out[static_cast<size_t>(c)] = estimator::fit_dwell_drift(in[static_cast<size_t>(c)].series);
+  return out;
+}
+
+Eigen::MatrixXd drift_widened_covariance(const std::array<DwellDriftInput, kNumChannels>& in, const Eigen::MatrixXd& C0,
+                                         const ChannelDrifts& drifts) {
+  std::vector<estimator::ChannelDrift> chans;
   for (int c = 0; c < kNumChannels; ++c) {
-    const ChannelDwells d = channel_dwells(acc, c, sigma[static_cast<size_t>(c)]);
-    if (d.series.t_s.empty()) continue;
-    out[static_cast<size_t>(c)] = estimator::fit_dwell_drift(d.series);
+    const DwellDriftInput& d = in[static_cast<size_t>(c)];
+    if (drifts[static_cast<size_t>(c)].adopted) chans.push_back({&drifts[static_cast<size_t>(c)], &d.series.t_s, d.G, d.cols});
+  }
+  return estimator::drift_covariance(C0, chans);
+}
+
+namespace {
+
+// The accumulator's dwells of each channel in slot space (SegmentMeans mapped through the plateau slots).
+std::array<DwellDriftInput, kNumChannels> fixture_drift_inputs(const FixtureAccumulator& acc, const Sigma6& sigma) {
+  std::array<DwellDriftInput, kNumChannels> out;
+  const int np = std::max(static_cast<int>(acc.plateaus().size()), 1);
+  const int n_slots = static_cast<int>(acc.slot_names(static_cast<int>(acc.plateaus().size())).size());
+  for (int c = 0; c < kNumChannels; ++c) {
+    const int s = c / 3;
+    const int nl = static_cast<int>(acc.sensor_ids(static_cast<Sensor>(s)).size());
+    std::vector<DwellSums> dw;
+    for (const auto& m : acc.segment_means()) {
+      if (m.sphi[static_cast<size_t>(c)].size() == 0 || m.n == 0) continue;  // no bias term on this channel
+      DwellSums d;
+      d.t_mid_s = m.t_mid_s;
+      d.n = m.n;
+      d.sz = m.sz[static_cast<size_t>(c)];
+      d.sphi = Eigen::VectorXd::Zero(n_slots);
+      for (int i = 0; i < nl; ++i)
+        d.sphi[acc.slot(s, i, m.plateau < 0 ? 0 : m.plateau, np)] += m.sphi[static_cast<size_t>(c)][i];
+      dw.push_back(std::move(d));
+    }
+    if (!dw.empty()) out[static_cast<size_t>(c)] = dwell_drift_input(dw, sigma[static_cast<size_t>(c)]);
   }
   return out;
 }
 
-Eigen::MatrixXd drift_widened_covariance(const FixtureAccumulator& acc, const Sigma6& sigma, const Eigen::MatrixXd& C0,
-                                         const ChannelDrifts& drifts) {
-  std::array<ChannelDwells, kNumChannels> dw;
-  std::vector<estimator::ChannelDrift> chans;
-  for (int c = 0; c < kNumChannels; ++c) {
-    if (!drifts[static_cast<size_t>(c)].adopted) continue;
-    dw[static_cast<size_t>(c)] = channel_dwells(acc, c, sigma[static_cast<size_t>(c)]);
-    const ChannelDwells& d = dw[static_cast<size_t>(c)];
-    chans.push_back({&drifts[static_cast<size_t>(c)], &d.series.t_s, d.G, d.cols});
-  }
-  return estimator::drift_covariance(C0, chans);
-}
+}  // namespace
 
 bool dwell_scatter_of(const model::ModelSpec& spec) {
   if (!spec.extra.is_object()) return true;
@@ -822,25 +829,28 @@ FixtureSolution solve_fixture_widened(const FixtureAccumulator& acc, const Sigma
     if (drifts) *drifts = ChannelDrifts{};
     return sol;
   }
-  const ChannelDrifts dr = fit_channel_drifts(acc, sigma);
+  const auto in = fixture_drift_inputs(acc, sigma);
+  const ChannelDrifts dr = fit_drifts(in);
   if (drifts) *drifts = dr;
-  sol.estimate.covariance = drift_widened_covariance(acc, sigma, sol.estimate.covariance, dr);
+  sol.estimate.covariance = drift_widened_covariance(in, sol.estimate.covariance, dr);
   return sol;
 }
 
-nlohmann::json dwell_scatter_json(const SegmentScatter& sc, bool widen, const ChannelDrifts& drifts) {
+nlohmann::json dwell_scatter_json(const SegmentScatter* sc, bool widen, const ChannelDrifts& drifts) {
   nlohmann::json j = {{"widened", widen}};
   for (int c = 0; c < kNumChannels; ++c) {
-    const double r = sc.ratio[static_cast<size_t>(c)];
-    if (!std::isfinite(r)) continue;
-    nlohmann::json e = {{"ratio", r}, {"dof", sc.dof[static_cast<size_t>(c)]},
-                        {"significant", scatter_significant(r, sc.dof[static_cast<size_t>(c)])}};
+    nlohmann::json e = nlohmann::json::object();
+    if (sc && std::isfinite(sc->ratio[static_cast<size_t>(c)])) {
+      const double r = sc->ratio[static_cast<size_t>(c)];
+      e = {{"ratio", r}, {"dof", sc->dof[static_cast<size_t>(c)]},
+           {"significant", scatter_significant(r, sc->dof[static_cast<size_t>(c)])}};
+    }
     const estimator::DwellDrift& d = drifts[static_cast<size_t>(c)];
     if (d.dwells > 0)
       e["drift"] = {{"adopted", d.adopted},        {"gain", d.gain},
                     {"offset_sigma", std::sqrt(d.offset_var)}, {"gm_sigma", std::sqrt(d.gm_var)},
                     {"gm_tau_s", d.gm_tau_s},      {"plausible", d.plausible.size()}};
-    j[channel_name(c)] = e;
+    if (!e.empty()) j[channel_name(c)] = e;
   }
   return j;
 }

@@ -360,15 +360,32 @@ struct SegmentScatter {
 SegmentScatter segment_scatter(const FixtureAccumulator& acc, const Eigen::VectorXd& theta, const Sigma6& sigma);
 // Whether a ratio is past white noise's spread: > 1 + 3·sqrt(2/dof) (the χ² test at about 3σ).
 bool scatter_significant(double ratio, int dof);
-// The dwell-to-dwell drift of each channel (estimator/drift.h): per channel, the dwell means' residual wander,
-// fitted by REML with the channel's columns profiled out. acc finished; a channel without a bias term, or with
-// too few dwells, gets no drift (adopted false). O(channels · grid · dwells · p²).
+// The dwell-to-dwell drift (estimator/drift.h, docs/calibration.md "Dwell drift"). Per channel, the dwells' sums
+// over their kept rows in one parameter space (slot space in fixture mode, model + nuisance in fixture+errors):
+// Σ z (or the residual at the estimate: REML does not tell them apart), Σ φ (the channel's Jacobian rows), n and
+// the mean time.
+struct DwellSums {
+  double t_mid_s = 0.0;
+  long long n = 0;
+  double sz = 0.0;
+  Eigen::VectorXd sphi;
+};
+// A channel's dwells as the drift fit and the covariance take them: the series on the parameters that act on the
+// channel (`cols`, the non-zero entries of any Σ φ), and G = Σ φ/σ². Throws on a dwell without samples.
+// O(dwells · parameters).
+struct DwellDriftInput {
+  estimator::DwellSeries series;
+  Eigen::MatrixXd G;
+  std::vector<int> cols;
+};
+DwellDriftInput dwell_drift_input(const std::vector<DwellSums>& dwells, double sigma);
 using ChannelDrifts = std::array<estimator::DwellDrift, kNumChannels>;
-ChannelDrifts fit_channel_drifts(const FixtureAccumulator& acc, const Sigma6& sigma);
-// The covariance of the white-σ solve `sol` under those drifts (estimator::drift_covariance): the estimate is the
-// same, its covariance C0 + C0 Gᵀ C G C0 with G the per-dwell sums of the weighted regressors, per parameter the
-// largest over the drifts the dwell means do not reject.
-Eigen::MatrixXd drift_widened_covariance(const FixtureAccumulator& acc, const Sigma6& sigma, const Eigen::MatrixXd& C0,
+// Fits each channel's drift (none where the channel has no dwells). O(channels · grid · dwells · p²).
+ChannelDrifts fit_drifts(const std::array<DwellDriftInput, kNumChannels>& in);
+// The covariance of a weighted least-squares estimate whose white-σ covariance is C0 under those drifts
+// (estimator::drift_covariance): C0 + C0 Gᵀ C G C0 per channel with an adopted drift, per parameter the largest
+// over the drifts the dwell means do not reject.
+Eigen::MatrixXd drift_widened_covariance(const std::array<DwellDriftInput, kNumChannels>& in, const Eigen::MatrixXd& C0,
                                          const ChannelDrifts& drifts);
 // Whether the model lets the drift widen σ: its "dwell_scatter" (default true; false keeps the white σ).
 bool dwell_scatter_of(const model::ModelSpec& spec);
@@ -381,7 +398,8 @@ FixtureSolution solve_fixture_widened(const FixtureAccumulator& acc, const Sigma
 // cal.json's "dwell_scatter": {"widened": bool, "<channel>": {ratio, dof, significant, drift: {adopted, gain,
 // offset_sigma, gm_sigma, gm_tau_s, plausible}}, …}. The same section from `imuforge solve` and the end-of-line
 // runner.
-nlohmann::json dwell_scatter_json(const SegmentScatter& sc, bool widen, const ChannelDrifts& drifts);
+// sc may be null (fixture+errors: no ratio, the drift only).
+nlohmann::json dwell_scatter_json(const SegmentScatter* sc, bool widen, const ChannelDrifts& drifts);
 
 // Solves; throws SolverError naming unobservable combinations on rank deficiency.
 FixtureSolution solve_fixture(const FixtureAccumulator& acc, const Sigma6& sigma);

@@ -109,6 +109,8 @@ class FixtureErrorsProblem : public NonlinearProblem {
     for (int s = 0; s < 2; ++s) J[static_cast<size_t>(s)].resize(3, static_cast<long>(ids_[static_cast<size_t>(s)].size()));
     Sigma6 rss{};
     long long count = 0;
+    dwell_sums_.clear();
+    int cur_seg = -1;
     // Ṫ for temp_rate: the same streaming centred difference as fixture mode (rows come out delayed).
     std::optional<CenteredTempRate> tdot;
     if (has_temp_rate_) tdot.emplace(dTdt_window_s_);
@@ -143,6 +145,11 @@ class FixtureErrorsProblem : public NonlinearProblem {
         return in;
       };
       const model::MeasureInput in0 = input(kin[0]);
+      if (dwell_sums_.empty() || row.segment != cur_seg) {
+        cur_seg = row.segment;
+        dwell_sums_.emplace_back();
+        for (DwellSums& ds : dwell_sums_.back()) ds.sphi = Eigen::VectorXd::Zero(n);
+      }
       for (int s = 0; s < 2; ++s) {
         const auto& ids = ids_[static_cast<size_t>(s)];
         if (!ids.empty()) model::regressors(static_cast<Sensor>(s), ids, in0, spec_.T_ref_C, J[static_cast<size_t>(s)]);
@@ -163,6 +170,11 @@ class FixtureErrorsProblem : public NonlinearProblem {
           ne.rhs.noalias() += (w * r) * jrow;
           ne.cost += w * r * r;
           rss[static_cast<size_t>(c)] += r * r;
+          DwellSums& ds = dwell_sums_.back()[static_cast<size_t>(c)];
+          ds.n += 1;
+          ds.t_mid_s += row.t_s;  // a sum until the pass ends
+          ds.sz += r;
+          ds.sphi += jrow;
         }
       }
       ++count;
@@ -179,6 +191,16 @@ class FixtureErrorsProblem : public NonlinearProblem {
     ne.n_obs = 6 * count;
     samples_ = count;
     for (int c = 0; c < 6; ++c) rms_[static_cast<size_t>(c)] = count ? std::sqrt(rss[static_cast<size_t>(c)] / count) : 0.0;
+    for (auto& d : dwell_sums_)
+      for (DwellSums& ds : d) ds.t_mid_s /= static_cast<double>(std::max(1LL, ds.n));
+  }
+  // Per dwell (time order) and channel, at the last linearize: residual sum, Jacobian-row sum, n, mean time
+  // (the drift model's input; docs/calibration.md "Dwell drift").
+  std::vector<DwellSums> dwell_sums(int c) const {
+    std::vector<DwellSums> out;
+    for (const auto& d : dwell_sums_)
+      if (d[static_cast<size_t>(c)].n > 0) out.push_back(d[static_cast<size_t>(c)]);
+    return out;
   }
 
  private:
@@ -197,6 +219,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
   double dwell_guard_s_ = kDefaultDwellGuard_s;
   mutable long long samples_ = 0;
   mutable Sigma6 rms_{};
+  mutable std::vector<std::array<DwellSums, 6>> dwell_sums_;
 };
 
 // The gauge (fixture_errors.h). Works on the null space N (columns) of the unit-diagonal information at
@@ -386,9 +409,20 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
   res.iterations = lm.iterations;
   res.noise_sigma = sigma;
   NormalEquations tmp(prob.num_params());
-  prob.linearize(lm.theta, tmp);  // residual RMS at the solution
+  prob.linearize(lm.theta, tmp);  // residual RMS and the dwells' sums at the solution
   res.residual_rms = prob.residual_rms();
   res.samples = prob.samples();
+  // As in fixture mode: the covariance carries the drift between dwells (docs/calibration.md, "Dwell drift"), on
+  // the residuals at the solution and the joint Jacobian (model and nuisance parameters).
+  if (dwell_scatter_of(spec)) {
+    std::array<DwellDriftInput, kNumChannels> in;
+    for (int c = 0; c < kNumChannels; ++c) {
+      const std::vector<DwellSums> dw = prob.dwell_sums(c);
+      if (!dw.empty()) in[static_cast<size_t>(c)] = dwell_drift_input(dw, sigma[static_cast<size_t>(c)]);
+    }
+    res.drifts = fit_drifts(in);
+    res.estimate.covariance = drift_widened_covariance(in, res.estimate.covariance, res.drifts);
+  }
   return res;
 }
 

@@ -57,6 +57,9 @@ struct FixtureErrorsResult {
   // convention, where the misalignments include the mount rotation (docs/calibration.md).
   bool mount_estimated = false;
   int iterations = 0;
+  // The drift between dwells fitted to the residuals at the solution (docs/calibration.md, "Dwell drift"); the
+  // covariance above carries the adopted ones. All not adopted with the model's "dwell_scatter": false.
+  ChannelDrifts drifts{};
 };
 
 FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelSpec& spec, const physics::Campaign& campaign,
