@@ -21,48 +21,21 @@
 
 #include "host/diagnosis/stats.h"
 #include "host/estimator/estimator.h"
+#include "host/estimator/stochastic.h"
 
 namespace imuforge::diagnosis {
 
-struct StochasticModel {
-  double Q = 0;        // quantization, unit
-  double N = 0;        // white noise density, unit/√Hz
-  double gm_sigma = 0; // Gauss-Markov stationary σ, unit
-  double gm_tau_s = 0; // its correlation time, s (0 = none)
-  double K = 0;        // rate random walk, unit·√Hz
-  double flicker_B = 0;               // flicker bias instability, unit (Allan floor ≈ 0.664 B)
-  double bank_sigma = 0;              // common stationary σ of each flicker GM state, unit
-  std::vector<double> bank_tau_s;     // their correlation times, s (empty = no flicker term)
-  // The flicker level the LIKELIHOOD carries: the one-sided 95 % upper confidence limit of the bank's σ on the
-  // Allan curve (profile over the other terms), ≥ bank_sigma. A static record of minutes pins a bias
-  // instability that sits below its white noise only loosely (often to zero); every inertial sensor has one,
-  // and an under-stated one lets its hour-scale wander read as a thermal effect. The point estimate
-  // (bank_sigma, flicker_B) is what is reported.
-  double bank_sigma_lik = 0;
-  double flicker_B_upper = 0;         // B of bank_sigma_lik, unit
-  // Variance of a bias that is constant within a segment and independent between segments: the rounding
-  // bias of a quantised output's static means (quantization_mean_bias_var). Not part of the Allan fit.
-  double seg_bias_var = 0;
-  double chi2 = 0;     // Allan-fit χ² (Σ edf/2 (AVAR − fit)²/fit²)
-  int n_points = 0;
-  // Allan variance of the model at cluster time tau_s.
-  double avar(double tau_s) const;
-  // Variance of the mean of white + quantization noise over tau_s (what a block mean carries
-  // independently of its neighbours).
-  double white_var(double tau_s) const;
-  // Every Gauss-Markov state (the single GM first, then the flicker bank): {σ², T}. upper_limit: the bank at
-  // bank_sigma_lik (the likelihood: GLS whitening), else at the point estimate bank_sigma (the variance of a
-  // block or segment mean: noise floors, held-out χ², cells).
-  std::vector<std::pair<double, double>> gm_states(bool upper_limit = true) const;
-};
+// The stochastic model and its GLS whitening live in the estimator core (host/estimator/stochastic.h), shared
+// with the solver's dwell drift; the diagnosis fits the model to the Allan curve here.
+using estimator::flicker_B_of_sigma;
+using estimator::flicker_bank_avar;
+using estimator::flicker_bank_taus;
+using estimator::gauss_markov_avar;
+using estimator::gm_block;
+using estimator::gls_normal_equations;
+using estimator::StochasticModel;
+using estimator::whiten_segment;
 
-// Correlation times of a flicker bank spanning [T_lo, T_hi] (factor 4 apart, both ends covered).
-std::vector<double> flicker_bank_taus(double T_lo_s, double T_hi_s);
-// Allan variance of a bank of unit-variance GM states at those correlation times.
-double flicker_bank_avar(double tau_s, const std::vector<double>& bank_tau_s);
-
-// Allan variance of a first-order Gauss-Markov process of unit stationary variance and correlation time T.
-double gauss_markov_avar(double tau_s, double T_s);
 
 // Fits {Q, N, GM(σ, T), flicker B, K} to an Allan curve: T on a log grid between the shortest and 4× the
 // longest cluster time, the flicker bank from the shortest cluster time to max(horizon_s, 4× the longest),
@@ -75,8 +48,6 @@ StochasticModel fit_stochastic_model(const std::vector<AllanAccumulator::Point>&
 // refitted) exceeds the best by at most 2.71 (one-sided 95 %). tmin: shortest cluster time, T_hi: horizon.
 void flicker_upper_limit(const std::vector<AllanAccumulator::Point>& pts, double tmin, double T_hi, StochasticModel& m);
 
-// B of a flicker bank of common state σ (the bank's Allan floor inside its span is 0.664² B²).
-double flicker_B_of_sigma(double bank_sigma, const std::vector<double>& bank_tau_s);
 
 // The bias wander the WHOLE log supports (docs/diagnosis.md § 2, "whole-log wander"). The static dwells show
 // the wander only up to their own length (tens of seconds); the block means of a log whose plateaus lie an hour
@@ -235,32 +206,6 @@ double quantization_mean_bias_var(double step, double sigma);
 // O(60 · 64).
 double quantizer_input_sigma(double step, double out_var);
 
-// GLS whitening of one segment's block means by a Kalman filter over the bias states (GM, RW).
-// Blocks in time order: mid time t_s, duration dur_s, observation row [z | x] (1 + P columns).
-// Outputs the innovations of every column and the innovation variance S per block, so that
-//   Σ (ν_z − ν_x θ)² / S  is the exact −2 log-likelihood (up to a constant) of θ for this segment.
-// rw_prior_var: variance of the random-walk bias at the segment start (it is not known from outside).
-// missing (optional, one flag per block): blocks treated as not observed (the state is only propagated
-// across them; their innovation row is 0 and S = 1), so that a training set's GLS leaves them out exactly.
-// seg_of (optional, one segment id per block): where m.seg_bias_var restarts (a new id); without it every block
-// is its own segment.
-// O(n · P).
-void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
-                    const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, Eigen::Ref<Eigen::MatrixXd> innov,
-                    Eigen::Ref<Eigen::VectorXd> S, const std::vector<char>* missing = nullptr,
-                    const std::vector<int>* seg_of = nullptr);
-
-// The GLS normal equations of rows = [z | x] under m, on the shared estimator core: the innovations
-// whiten_segment gives, each block weighted by 1/S; blocks marked in `missing` are left out as they are there.
-// Every GLS fit of the diagnosis (the selection's per-fold sums, the tests of one effect under a raised wander,
-// heating against cooling, the form check, the whole-log likelihood) goes through here, so a change to the
-// likelihood is one change. Optional outputs: Σ log S over the blocks used (for −2 log L), and the innovations
-// and their variances themselves. O(n · (P² + P · states)).
-estimator::NormalEquations gls_normal_equations(const StochasticModel& m, const std::vector<double>& t_s,
-                                                const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
-                                                double rw_prior_var, const std::vector<int>* seg_of,
-                                                const std::vector<char>* missing = nullptr, double* sum_log_S = nullptr,
-                                                Eigen::MatrixXd* innov_out = nullptr, Eigen::VectorXd* S_out = nullptr);
 
 // Variance of Σ u_i x_i over block means x_i in time order (mid times t_s ascending, durations dur_s, segment
 // ids seg) under m: Σ_i Σ_j u_i u_j cov(x_i, x_j), with block_covariance's terms across blocks (the GM and flicker

@@ -10,6 +10,7 @@
 #include <Eigen/QR>
 
 #include "host/estimator/estimator.h"
+#include "host/estimator/stochastic.h"
 
 namespace imuforge::estimator {
 namespace {
@@ -31,30 +32,31 @@ Eigen::MatrixXd column_basis(const Eigen::MatrixXd& X) {
   return Q;
 }
 
-double reml(const std::vector<double>& t, const Eigen::VectorXd& y, const Eigen::MatrixXd& Q, const Eigen::VectorXd& w,
-            double offset_var, double gm_var, double tau_s) {
-  const Eigen::Index S = y.size(), r = Q.cols();
-  const bool gm = gm_var > 0 && tau_s > 0;
+// −2 log L_R on the rows [y | Q] through the shared whitening (stochastic.h): the Gauss-Markov wander and the
+// flicker bank as its states, the per-dwell offset as a bias that is new in every dwell, the white variance of each
+// mean added to the block's own.
+double reml(const DwellSeries& s, const Eigen::MatrixXd& rows, const DwellDrift& d) {
+  const Eigen::Index S = rows.rows(), r = rows.cols() - 1;
+  StochasticModel m;
+  if (d.gm_var > 0 && d.gm_tau_s > 0) {
+    m.gm_sigma = std::sqrt(d.gm_var);
+    m.gm_tau_s = d.gm_tau_s;
+  }
+  if (d.flicker_var > 0) {
+    m.bank_sigma = std::sqrt(d.flicker_var);
+    m.bank_tau_s = d.flicker_tau_s;
+  }
+  m.seg_bias_var = d.offset_var;
+  Eigen::MatrixXd innov(S, r + 1);
+  Eigen::VectorXd F(S);
+  // Zero durations: the wander is taken as constant over each dwell (drift.h says why).
+  const std::vector<double> dur0(static_cast<size_t>(S), 0.0);
+  whiten_segment(m, s.t_s, dur0, rows, 0.0, innov, F, nullptr, nullptr, &s.white_var);
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(r + 1, r + 1);
-  Eigen::VectorXd xhat = Eigen::VectorXd::Zero(r + 1), v(r + 1);
-  double P = gm ? gm_var : 0.0, logdet = 0.0;
+  double logdet = 0.0;
   for (Eigen::Index i = 0; i < S; ++i) {
-    if (gm && i > 0) {
-      const double phi = std::exp(-(t[static_cast<size_t>(i)] - t[static_cast<size_t>(i - 1)]) / tau_s);
-      xhat *= phi;
-      P = phi * phi * P + gm_var * (1.0 - phi * phi);
-    }
-    const double R = w[i] + offset_var;
-    const double F = P + R;
-    v[0] = y[i];
-    v.tail(r) = Q.row(i).transpose();
-    v -= xhat;
-    logdet += std::log(F);
-    M.selfadjointView<Eigen::Lower>().rankUpdate(v, 1.0 / F);
-    if (gm) {
-      xhat += (P / F) * v;
-      P = P * R / F;
-    }
+    M.selfadjointView<Eigen::Lower>().rankUpdate(innov.row(i).transpose(), 1.0 / F[i]);
+    logdet += std::log(F[i]);
   }
   if (r == 0) return logdet + M(0, 0);
   const Eigen::MatrixXd Mxx = M.bottomRightCorner(r, r).selfadjointView<Eigen::Lower>();
@@ -65,6 +67,13 @@ double reml(const std::vector<double>& t, const Eigen::VectorXd& y, const Eigen:
   const double logdet_x = 2.0 * L.diagonal().array().log().sum();
   const double chi2 = M(0, 0) - mxy.dot(llt.solve(mxy));
   return logdet + logdet_x + chi2;
+}
+
+Eigen::MatrixXd reml_rows(const DwellSeries& s, const Eigen::MatrixXd& Q) {
+  Eigen::MatrixXd rows(s.y.size(), Q.cols() + 1);
+  rows.col(0) = s.y;
+  rows.rightCols(Q.cols()) = Q;
+  return rows;
 }
 
 void check(const DwellSeries& s) {
@@ -80,60 +89,61 @@ void check(const DwellSeries& s) {
   }
 }
 
-// Nelder-Mead minimum of f over R^3 from x0 with initial steps h: the likelihood's ridge (for τ past the log's
-// span only gm_var/τ is determined) defeats a coordinate search. Stops after max_eval evaluations or when the
-// simplex's values agree to 1e-4.
+// Nelder-Mead minimum of f over R^n from x0 with initial steps h: the likelihood's ridges (for τ near the log's
+// span only gm_var/τ is determined; a flicker bank and a Gauss-Markov term trade against each other) defeat a
+// coordinate search. Stops after max_eval evaluations or when the simplex's values agree to 1e-4.
 template <class F>
-Eigen::Vector3d nelder_mead(F f, const Eigen::Vector3d& x0, double h, int max_eval, double& fbest) {
-  std::array<Eigen::Vector3d, 4> x;
-  std::array<double, 4> fx;
-  for (int i = 0; i < 4; ++i) {
-    x[static_cast<size_t>(i)] = x0;
+Eigen::VectorXd nelder_mead(F f, const Eigen::VectorXd& x0, double h, int max_eval, double& fbest) {
+  const int n = static_cast<int>(x0.size());
+  std::vector<Eigen::VectorXd> x(static_cast<size_t>(n + 1), x0);
+  std::vector<double> fx(static_cast<size_t>(n + 1));
+  for (int i = 0; i <= n; ++i) {
     if (i > 0) x[static_cast<size_t>(i)][i - 1] += h;
     fx[static_cast<size_t>(i)] = f(x[static_cast<size_t>(i)]);
   }
-  int evals = 4;
+  int evals = n + 1;
+  std::vector<size_t> o(static_cast<size_t>(n + 1));
   while (evals < max_eval) {
-    std::array<int, 4> o{0, 1, 2, 3};
-    std::sort(o.begin(), o.end(), [&](int a, int b) { return fx[static_cast<size_t>(a)] < fx[static_cast<size_t>(b)]; });
-    const size_t lo = static_cast<size_t>(o[0]), hi = static_cast<size_t>(o[3]), nh = static_cast<size_t>(o[2]);
+    for (size_t i = 0; i < o.size(); ++i) o[i] = i;
+    std::sort(o.begin(), o.end(), [&](size_t a, size_t b) { return fx[a] < fx[b]; });
+    const size_t lo = o.front(), hi = o.back(), nh = o[o.size() - 2];
     if (std::abs(fx[hi] - fx[lo]) < 1e-4) break;
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (size_t i = 0; i < 4; ++i)
-      if (i != hi) c += x[i] / 3.0;
-    const Eigen::Vector3d xr = c + (c - x[hi]);
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(n);
+    for (size_t i = 0; i < x.size(); ++i)
+      if (i != hi) c += x[i] / n;
+    const Eigen::VectorXd xr = c + (c - x[hi]);
     const double fr = f(xr);
     ++evals;
     if (fr < fx[lo]) {
-      const Eigen::Vector3d xe = c + 2.0 * (c - x[hi]);
+      const Eigen::VectorXd xe = c + 2.0 * (c - x[hi]);
       const double fe = f(xe);
       ++evals;
       if (fe < fr) { x[hi] = xe; fx[hi] = fe; } else { x[hi] = xr; fx[hi] = fr; }
     } else if (fr < fx[nh]) {
       x[hi] = xr; fx[hi] = fr;
     } else {
-      const Eigen::Vector3d xc = c + 0.5 * (x[hi] - c);
+      const Eigen::VectorXd xc = c + 0.5 * (x[hi] - c);
       const double fc = f(xc);
       ++evals;
       if (fc < fx[hi]) {
         x[hi] = xc; fx[hi] = fc;
       } else {
-        for (size_t i = 0; i < 4; ++i)
+        for (size_t i = 0; i < x.size(); ++i)
           if (i != lo) { x[i] = x[lo] + 0.5 * (x[i] - x[lo]); fx[i] = f(x[i]); ++evals; }
       }
     }
   }
-  size_t b = 0;
-  for (size_t i = 1; i < 4; ++i) if (fx[i] < fx[b]) b = i;
-  fbest = fx[b];
-  return x[b];
+  size_t bi = 0;
+  for (size_t i = 1; i < fx.size(); ++i) if (fx[i] < fx[bi]) bi = i;
+  fbest = fx[bi];
+  return x[bi];
 }
 
 }  // namespace
 
 double dwell_drift_reml(const DwellSeries& s, const DwellDrift& d) {
   check(s);
-  return reml(s.t_s, s.y, column_basis(s.X), s.white_var, d.offset_var, d.gm_var, d.gm_tau_s);
+  return reml(s, reml_rows(s, column_basis(s.X)), d);
 }
 
 DwellDrift fit_dwell_drift(const DwellSeries& s) {
@@ -142,6 +152,7 @@ DwellDrift fit_dwell_drift(const DwellSeries& s) {
   const Eigen::Index S = s.y.size();
   out.dwells = static_cast<int>(S);
   const Eigen::MatrixXd Q = column_basis(s.X);
+  const Eigen::MatrixXd rows = reml_rows(s, Q);
   out.rank = static_cast<int>(Q.cols());
   if (S < Q.cols() + 4) return out;
 
@@ -152,72 +163,87 @@ DwellDrift fit_dwell_drift(const DwellSeries& s) {
   for (size_t i = 1; i < s.t_s.size(); ++i)
     if (s.t_s[i] > s.t_s[i - 1]) dt.push_back(s.t_s[i] - s.t_s[i - 1]);
   const double span = s.t_s.back() - s.t_s.front();
+  if (dt.empty() || !(span > 0)) return out;
+  std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
+  const double dt_med = dt[dt.size() / 2];
+  const double lt_hi = std::log(span), lt_lo = std::log(std::max(dt_med / 4.0, 1e-3));
+  // The flicker bank spans the scales the dwell means can show: from a quarter of their spacing to the span.
+  const std::vector<double> bank = flicker_bank_taus(std::exp(lt_lo), span);
 
-  std::vector<std::pair<double, DwellDrift>> seen;  // every drift evaluated, for the plausible set
-  auto L = [&](double la, double lb, double lt) {
-    const double a = std::isfinite(la) ? s0 * std::exp(la) : 0.0;
-    const double b = std::isfinite(lb) ? s0 * std::exp(lb) : 0.0;
-    const double v = reml(s.t_s, s.y, Q, s.white_var, b, a, std::exp(lt));
-    if (a > 0 || b > 0) {
-      DwellDrift d;
-      d.offset_var = b;
-      d.gm_var = a;
-      d.gm_tau_s = a > 0 ? std::exp(lt) : 0.0;
-      seen.emplace_back(v, std::move(d));
+  // x = (ln gm_var, ln offset_var, ln τ, ln flicker_var), variances in units of s0 (a typical dwell mean's white
+  // variance); a log variance below kNone is that term off.
+  constexpr double kNone = -15.0;
+  auto drift_of = [&](const Eigen::Vector4d& x) {
+    DwellDrift d;
+    if (x[0] > kNone) {
+      d.gm_var = s0 * std::exp(std::min(x[0], 25.0));
+      d.gm_tau_s = std::exp(x[2]);
     }
+    if (x[1] > kNone) d.offset_var = s0 * std::exp(std::min(x[1], 25.0));
+    if (x[3] > kNone && !bank.empty()) {
+      d.flicker_var = s0 * std::exp(std::min(x[3], 25.0));
+      d.flicker_tau_s = bank;
+    }
+    return d;
+  };
+  std::vector<std::pair<double, DwellDrift>> seen;  // every drift evaluated, for the plausible set
+  auto L = [&](const Eigen::Vector4d& x) {
+    DwellDrift d = drift_of(x);
+    const double v = reml(s, rows, d);
+    if (d.any()) seen.emplace_back(v, std::move(d));
     return v;
   };
-  const double none = -std::numeric_limits<double>::infinity();
-  const double L0 = L(none, none, 0.0);
-  double best = L0, ba = none, bb = none, bt = 0.0;
-  // Offsets alone (the Gauss-Markov term off).
-  for (double lb = -3.0; lb <= 18.0; lb += 3.0) {
-    const double v = L(none, lb, 0.0);
-    if (v < best) { best = v; ba = none; bb = lb; bt = 0.0; }
-  }
-  if (!dt.empty() && span > 0) {
-    std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
-    const double dt_med = dt[dt.size() / 2];
-    const double lt_hi = std::log(span), lt_lo = std::log(std::max(dt_med / 4.0, 1e-3));
-    for (double lt = lt_hi; lt >= lt_lo; lt -= std::log(2.0))
-      for (double la = -3.0; la <= 18.0; la += 1.5)
-        for (double lb : {none, -3.0, 0.0, 3.0, 6.0, 9.0, 12.0}) {
-          const double v = L(la, lb, lt);
-          if (v < best) { best = v; ba = la; bb = lb; bt = lt; }
-        }
-    // Refine from the best grid point and the best with the other kind of τ (short: offsets between dwells;
-    // long: a wander across the log), in (ln gm_var, ln offset_var, ln τ); ln offset_var below −15 is none.
-    if (std::isfinite(ba)) {
-      auto f = [&](const Eigen::Vector3d& x) {
-        const double lt = std::clamp(x[2], lt_lo - 2.0, lt_hi + 1.0);
-        const double v = L(std::min(x[0], 25.0), x[1] < -15.0 ? none : std::min(x[1], 25.0), lt);
-        return v + (lt != x[2] ? 1e3 * std::abs(lt - x[2]) : 0.0);  // stay in the searched τ range
-      };
-      double fb;
-      const Eigen::Vector3d xb = nelder_mead(f, Eigen::Vector3d(ba, std::isfinite(bb) ? bb : -16.0, bt), 1.0, 300, fb);
-      if (fb < best) {
-        best = fb;
-        ba = std::min(xb[0], 25.0);
-        bb = xb[1] < -15.0 ? none : std::min(xb[1], 25.0);
-        bt = xb[2];
-      }
+  const double off = kNone - 1.0;
+  const double L0 = L(Eigen::Vector4d(off, off, 0.0, off));
+  double best = L0;
+  Eigen::Vector4d xb(off, off, 0.0, off);
+  auto consider = [&](const Eigen::Vector4d& x) {
+    const double v = L(x);
+    if (v < best) { best = v; xb = x; }
+  };
+  // Coarse grids: offsets alone; a Gauss-Markov wander (τ by factors of 2) with offsets; a flicker bank with offsets.
+  for (double lb = -3.0; lb <= 18.0; lb += 3.0) consider(Eigen::Vector4d(off, lb, 0.0, off));
+  for (double lt = lt_hi; lt >= lt_lo; lt -= std::log(2.0))
+    for (double la = -3.0; la <= 18.0; la += 1.5)
+      for (double lb : {off, -3.0, 0.0, 3.0, 6.0, 9.0, 12.0}) consider(Eigen::Vector4d(la, lb, lt, off));
+  if (!bank.empty())
+    for (double lf = -6.0; lf <= 15.0; lf += 1.5)
+      for (double lb : {off, -3.0, 0.0, 3.0, 6.0, 9.0}) consider(Eigen::Vector4d(off, lb, 0.5 * (lt_lo + lt_hi), lf));
+  // Refine jointly from the best grid point: a term that is off starts just below the level where it acts.
+  if (best < L0) {
+    Eigen::Vector4d x0 = xb;
+    for (int k : {0, 1, 3})
+      if (x0[k] <= kNone) x0[k] = -4.0;
+    auto f = [&](const Eigen::VectorXd& x) {
+      const double lt = std::clamp(x[2], lt_lo - 2.0, lt_hi);
+      const double v = L(Eigen::Vector4d(x[0], x[1], lt, x[3]));
+      return v + (lt != x[2] ? 1e3 * std::abs(lt - x[2]) : 0.0);  // stay in the searched τ range
+    };
+    double fb;
+    const Eigen::VectorXd xn = nelder_mead(f, x0, 1.0, 400, fb);
+    if (fb < best) {
+      best = fb;
+      xb = Eigen::Vector4d(xn[0], xn[1], std::clamp(xn[2], lt_lo - 2.0, lt_hi), xn[3]);
     }
   }
-  out.offset_var = std::isfinite(bb) ? s0 * std::exp(bb) : 0.0;
-  out.gm_var = std::isfinite(ba) ? s0 * std::exp(ba) : 0.0;
-  out.gm_tau_s = std::isfinite(ba) ? std::exp(bt) : 0.0;
+  const DwellDrift bd = drift_of(xb);
+  out.offset_var = bd.offset_var;
+  out.gm_var = bd.gm_var;
+  out.gm_tau_s = bd.gm_tau_s;
+  out.flicker_var = bd.flicker_var;
+  out.flicker_tau_s = bd.flicker_tau_s;
   out.gain = std::max(0.0, L0 - best);
   out.adopted = out.gain > kDriftGainThreshold && out.any();
   if (out.adopted) {
     std::sort(seen.begin(), seen.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    auto near = [](double a, double b) { return std::abs(std::log((a + 1e-300) / (b + 1e-300))) < 0.05; };
     for (const auto& [v, d] : seen) {
       if (v > best + kDriftPlausible) break;
       // The Nelder-Mead path revisits near-copies of its best point; they add nothing to an envelope.
       bool dup = false;
       for (const DwellDrift& p : out.plausible)
-        dup = dup || (std::abs(std::log((p.gm_var + 1e-300) / (d.gm_var + 1e-300))) < 0.05 &&
-                      std::abs(std::log((p.offset_var + 1e-300) / (d.offset_var + 1e-300))) < 0.05 &&
-                      std::abs(std::log((p.gm_tau_s + 1e-300) / (d.gm_tau_s + 1e-300))) < 0.05);
+        dup = dup || (near(p.gm_var, d.gm_var) && near(p.offset_var, d.offset_var) && near(p.gm_tau_s, d.gm_tau_s) &&
+                      near(p.flicker_var, d.flicker_var));
       if (!dup) out.plausible.push_back(d);
       if (out.plausible.size() >= kDriftPlausibleMax) break;
     }
@@ -229,22 +255,28 @@ Eigen::MatrixXd drift_covariance_times(const DwellDrift& d, const std::vector<do
   const Eigen::Index S = G.rows();
   if (static_cast<Eigen::Index>(t_s.size()) != S) throw EstimatorError("dwell drift: times and rows differ in length");
   Eigen::MatrixXd out = d.offset_var * G;
-  if (!(d.gm_var > 0 && d.gm_tau_s > 0) || S == 0) return out;
-  // Σ_j exp(−|t_i − t_j|/τ) G_j = forward part (j ≤ i) + backward part (j > i).
-  Eigen::RowVectorXd acc = G.row(0);
+  if (S == 0) return out;
+  std::vector<std::pair<double, double>> states;  // {var, τ}: the wander, then the flicker bank's
+  if (d.gm_var > 0 && d.gm_tau_s > 0) states.push_back({d.gm_var, d.gm_tau_s});
+  if (d.flicker_var > 0)
+    for (double T : d.flicker_tau_s) states.push_back({d.flicker_var, T});
   Eigen::MatrixXd fwd(S, G.cols());
-  fwd.row(0) = acc;
-  for (Eigen::Index i = 1; i < S; ++i) {
-    const double e = std::exp(-(t_s[static_cast<size_t>(i)] - t_s[static_cast<size_t>(i - 1)]) / d.gm_tau_s);
-    acc = G.row(i) + e * acc;
-    fwd.row(i) = acc;
-  }
-  Eigen::RowVectorXd back = Eigen::RowVectorXd::Zero(G.cols());
-  for (Eigen::Index i = S - 1; i >= 0; --i) {
-    out.row(i) += d.gm_var * (fwd.row(i) + back);
-    if (i > 0) {
-      const double e = std::exp(-(t_s[static_cast<size_t>(i)] - t_s[static_cast<size_t>(i - 1)]) / d.gm_tau_s);
-      back = e * (G.row(i) + back);
+  for (const auto& [var, tau] : states) {
+    // Σ_j exp(−|t_i − t_j|/τ) G_j = forward part (j ≤ i) + backward part (j > i).
+    Eigen::RowVectorXd acc = G.row(0);
+    fwd.row(0) = acc;
+    for (Eigen::Index i = 1; i < S; ++i) {
+      const double e = std::exp(-(t_s[static_cast<size_t>(i)] - t_s[static_cast<size_t>(i - 1)]) / tau);
+      acc = G.row(i) + e * acc;
+      fwd.row(i) = acc;
+    }
+    Eigen::RowVectorXd back = Eigen::RowVectorXd::Zero(G.cols());
+    for (Eigen::Index i = S - 1; i >= 0; --i) {
+      out.row(i) += var * (fwd.row(i) + back);
+      if (i > 0) {
+        const double e = std::exp(-(t_s[static_cast<size_t>(i)] - t_s[static_cast<size_t>(i - 1)]) / tau);
+        back = e * (G.row(i) + back);
+      }
     }
   }
   return out;

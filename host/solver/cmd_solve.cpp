@@ -144,9 +144,10 @@ void report_drift(CalibrationResult& res, const SegmentScatter* sc, const Channe
   for (int c = 0; c < kNumChannels; ++c) {
     const estimator::DwellDrift& d = drifts[static_cast<size_t>(c)];
     if (!d.adopted) continue;
-    char b[160];
-    std::snprintf(b, sizeof b, "%s%s (offsets σ %.3g, wander σ %.3g over τ %.0f s)", loud.empty() ? "" : ", ",
-                  channel_name(c), std::sqrt(d.offset_var), std::sqrt(d.gm_var), d.gm_tau_s);
+    char b[200];
+    std::snprintf(b, sizeof b, "%s%s (offsets σ %.3g, wander σ %.3g over τ %.0f s, flicker σ %.3g per state)",
+                  loud.empty() ? "" : ", ", channel_name(c), std::sqrt(d.offset_var), std::sqrt(d.gm_var), d.gm_tau_s,
+                  std::sqrt(d.flicker_var));
     loud += b;
   }
   if (!loud.empty())

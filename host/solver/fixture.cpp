@@ -779,7 +779,8 @@ Eigen::MatrixXd drift_widened_covariance(const std::array<DwellDriftInput, kNumC
   std::vector<estimator::ChannelDrift> chans;
   for (int c = 0; c < kNumChannels; ++c) {
     const DwellDriftInput& d = in[static_cast<size_t>(c)];
-    if (drifts[static_cast<size_t>(c)].adopted) chans.push_back({&drifts[static_cast<size_t>(c)], &d.series.t_s, d.G, d.cols});
+    if (drifts[static_cast<size_t>(c)].adopted)
+      chans.push_back({&drifts[static_cast<size_t>(c)], &d.series.t_s, d.G, d.cols});
   }
   return estimator::drift_covariance(C0, chans);
 }
@@ -849,7 +850,8 @@ nlohmann::json dwell_scatter_json(const SegmentScatter* sc, bool widen, const Ch
     if (d.dwells > 0)
       e["drift"] = {{"adopted", d.adopted},        {"gain", d.gain},
                     {"offset_sigma", std::sqrt(d.offset_var)}, {"gm_sigma", std::sqrt(d.gm_var)},
-                    {"gm_tau_s", d.gm_tau_s},      {"plausible", d.plausible.size()}};
+                    {"gm_tau_s", d.gm_tau_s},      {"flicker_sigma", std::sqrt(d.flicker_var)},
+                    {"plausible", d.plausible.size()}};
     if (!e.empty()) j[channel_name(c)] = e;
   }
   return j;

@@ -396,7 +396,7 @@ bool dwell_scatter_of(const model::ModelSpec& spec);
 FixtureSolution solve_fixture_widened(const FixtureAccumulator& acc, const Sigma6& sigma, SegmentScatter* scatter = nullptr,
                                       ChannelDrifts* drifts = nullptr);
 // cal.json's "dwell_scatter": {"widened": bool, "<channel>": {ratio, dof, significant, drift: {adopted, gain,
-// offset_sigma, gm_sigma, gm_tau_s, plausible}}, …}. The same section from `imuforge solve` and the end-of-line
+// offset_sigma, gm_sigma, gm_tau_s, flicker_sigma, plausible}}, …}. The same section from `imuforge solve` and the end-of-line
 // runner.
 // sc may be null (fixture+errors: no ratio, the drift only).
 nlohmann::json dwell_scatter_json(const SegmentScatter* sc, bool widen, const ChannelDrifts& drifts);

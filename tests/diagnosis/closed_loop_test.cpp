@@ -171,7 +171,7 @@ TEST(DiagnosisClosedLoop, EmittedModelSolvesToTheDiagnosedGap) {
 // solver builds d(t) at it. The sensor's threshold is 0.3 °C and its die reverses by 0.4 °C between plateaus,
 // which turns d at 0.3 °C and not at the catalog's 0.5 °C; the logged temperature carries 0.02 °C of noise.
 // Solved at the emitted threshold the hysteresis is read within 3σ; the same model without the key (0.5 °C)
-// reads it short.
+// reads it short by more than 3 white-noise σ, and its σ (with the dwell drift) is widened past 3× that.
 TEST(DiagnosisClosedLoop, HysteresisThresholdGoesRoundTheLoop) {
   const fs::path dir = fs::temp_directory_path() / ("imuforge-closed-loop-h-" + std::to_string(::getpid()));
   fs::create_directories(dir);
@@ -199,11 +199,20 @@ TEST(DiagnosisClosedLoop, HysteresisThresholdGoesRoundTheLoop) {
   json at_default = m;
   at_default.erase("hysteresis_threshold_C");
   std::ofstream(dir / "at_default.json") << at_default.dump(1);
+  // The same with σ from white noise alone: what the wrong threshold costs is judged against the noise, since the
+  // default σ carries the misfit it leaves between dwells as drift (docs/calibration.md, "Dwell drift").
+  json at_default_white = at_default;
+  at_default_white["dwell_scatter"] = false;
+  std::ofstream(dir / "at_default_white.json") << at_default_white.dump(1);
   ASSERT_EQ(run("solve --log " + log + " --model " + ext.string() + " --out " + (dir / "cal_ext.json").string(), dir / "solve_e.txt"), 0);
   ASSERT_EQ(run("solve --log " + log + " --model " + (dir / "at_default.json").string() + " --out " + (dir / "cal_05.json").string(),
                 dir / "solve_05.txt"),
             0);
-  const json ce = read(dir / "cal_ext.json"), c5 = read(dir / "cal_05.json");
+  ASSERT_EQ(run("solve --log " + log + " --model " + (dir / "at_default_white.json").string() + " --out " +
+                    (dir / "cal_05w.json").string(),
+                dir / "solve_05w.txt"),
+            0);
+  const json ce = read(dir / "cal_ext.json"), c5 = read(dir / "cal_05.json"), c5w = read(dir / "cal_05w.json");
   EXPECT_DOUBLE_EQ(ce["model"]["hysteresis_threshold_C"].get<double>(), 0.3);
   auto param = [](const json& cal, const std::string& name) {
     for (const auto& p : cal["parameters"])
@@ -213,9 +222,15 @@ TEST(DiagnosisClosedLoop, HysteresisThresholdGoesRoundTheLoop) {
   for (const auto& [name, truth] : {std::make_pair(std::string("accel.temp_hysteresis.x"), 3e-3), std::make_pair(std::string("accel.temp_hysteresis.z"), -2e-3)}) {
     const auto [v, sg] = param(ce, name);
     const auto [v5, sg5] = param(c5, name);
-    std::printf("%s: %.4e +- %.2e at the emitted threshold, %.4e +- %.2e at 0.5 C (truth %.1e)\n", name.c_str(), v, sg, v5, sg5, truth);
+    const auto [v5w, sg5w] = param(c5w, name);
+    std::printf("%s: %.4e +- %.2e at the emitted threshold, %.4e +- %.2e at 0.5 C (white-noise sigma %.2e; truth %.1e)\n",
+                name.c_str(), v, sg, v5, sg5, sg5w, truth);
     EXPECT_NEAR(v, truth, 3.0 * sg) << name;
-    EXPECT_GT(std::fabs(v5 - truth), 3.0 * sg5) << name << ": at 0.5 C the 0.4 C reversals are missed (else this shows nothing)";
+    EXPECT_DOUBLE_EQ(v5, v5w) << name;
+    EXPECT_GT(std::fabs(v5w - truth), 3.0 * sg5w) << name << ": at 0.5 C the 0.4 C reversals are missed (else this shows nothing)";
+    // The misfit the wrong threshold leaves moves the dwell means from one to the next: the drift takes it and σ
+    // says the estimate is not worth its white-noise precision.
+    EXPECT_GT(sg5, 3.0 * sg5w) << name;
   }
   if (!std::getenv("KEEP")) fs::remove_all(dir);
 }

@@ -1,5 +1,5 @@
-// The dwell-drift model of the estimator core (host/estimator/drift.h): its Kalman likelihood against the dense
-// REML formula, its covariance product against the dense matrix, no drift claimed on white dwell means, and the
+// The dwell-drift model of the estimator core (host/estimator/drift.h): its likelihood (the shared Kalman
+// whitening, stochastic.h) against the dense REML formula, its covariance product against the dense matrix, no drift claimed on white dwell means, and the
 // drift's covariance covering a WLS estimate's error where the white σ does not.
 #include <gtest/gtest.h>
 
@@ -11,6 +11,7 @@
 
 #include "host/estimator/drift.h"
 #include "host/estimator/estimator.h"
+#include "host/estimator/stochastic.h"
 
 // A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
 namespace estimator_drift_test {
@@ -19,12 +20,18 @@ using namespace imuforge::estimator;
 
 namespace {
 
+// The dwell means' covariance written out: C_ij = gm_var exp(−|t_i − t_j|/τ) + the flicker bank's states, plus the
+// offsets and the white variance on the diagonal.
 Eigen::MatrixXd dense_cov(const DwellDrift& d, const std::vector<double>& t, const Eigen::VectorXd& w) {
   const Eigen::Index S = static_cast<Eigen::Index>(t.size());
   Eigen::MatrixXd V = Eigen::MatrixXd::Zero(S, S);
-  for (Eigen::Index i = 0; i < S; ++i)
-    for (Eigen::Index j = 0; j < S; ++j)
-      if (d.gm_var > 0) V(i, j) = d.gm_var * std::exp(-std::abs(t[static_cast<size_t>(i)] - t[static_cast<size_t>(j)]) / d.gm_tau_s);
+  std::vector<std::pair<double, double>> states;
+  if (d.gm_var > 0) states.push_back({d.gm_var, d.gm_tau_s});
+  for (double T : d.flicker_tau_s) states.push_back({d.flicker_var, T});
+  for (const auto& [var, tau] : states)
+    for (Eigen::Index i = 0; i < S; ++i)
+      for (Eigen::Index j = 0; j < S; ++j)
+        V(i, j) += var * std::exp(-std::abs(t[static_cast<size_t>(i)] - t[static_cast<size_t>(j)]) / tau);
   for (Eigen::Index i = 0; i < S; ++i) V(i, i) += w[i] + d.offset_var;
   return V;
 }
@@ -42,7 +49,8 @@ double dense_reml(const DwellSeries& s, const DwellDrift& d) {
   return logdetV + logdetA + s.y.dot(Viy) - Xty.dot(la.solve(Xty));
 }
 
-// S dwells of length 60 s, one every 90 s on average (jittered), a bias and a slow "temperature" column.
+// S dwells, one every 90 s on average (jittered), a bias and a slow "temperature" column; the wander at each
+// dwell's time.
 DwellSeries series(int S, unsigned seed, double gm_var, double tau_s, double offset_var, double white_var) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n01;
@@ -72,7 +80,9 @@ DwellSeries series(int S, unsigned seed, double gm_var, double tau_s, double off
 
 TEST(DwellDrift, KalmanLikelihoodMatchesTheDenseRemlUpToAConstant) {
   const DwellSeries s = series(60, 1, 4.0, 900.0, 0.5, 1.0);
-  const DwellDrift d1{0.5, 4.0, 900.0}, d2{0.0, 1.0, 200.0}, d3{2.0, 0.0, 0.0};
+  DwellDrift d1{0.5, 4.0, 900.0}, d2{0.0, 1.0, 200.0}, d3{2.0, 0.0, 0.0};
+  d2.flicker_var = 0.3;  // a flicker bank beside the wander
+  d2.flicker_tau_s = flicker_bank_taus(20.0, 6000.0);
   const double k1 = dwell_drift_reml(s, d1), k2 = dwell_drift_reml(s, d2), k3 = dwell_drift_reml(s, d3);
   const double r1 = dense_reml(s, d1), r2 = dense_reml(s, d2), r3 = dense_reml(s, d3);
   // The Kalman form works on an orthonormal basis of X, the dense one on X: they differ by one constant.
@@ -82,7 +92,9 @@ TEST(DwellDrift, KalmanLikelihoodMatchesTheDenseRemlUpToAConstant) {
 
 TEST(DwellDrift, CovarianceProductMatchesTheDenseMatrix) {
   const DwellSeries s = series(50, 2, 1.0, 300.0, 0.0, 1.0);
-  const DwellDrift d{0.7, 2.5, 450.0};
+  DwellDrift d{0.7, 2.5, 450.0};
+  d.flicker_var = 0.4;
+  d.flicker_tau_s = flicker_bank_taus(20.0, 6000.0);
   Eigen::MatrixXd G = Eigen::MatrixXd::Random(50, 3);
   const Eigen::MatrixXd want = (dense_cov(d, s.t_s, Eigen::VectorXd::Zero(50)) * G).eval();
   const Eigen::MatrixXd got = drift_covariance_times(d, s.t_s, G);
