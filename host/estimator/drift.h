@@ -16,9 +16,10 @@
 // mid-time: a wander faster than a dwell then counts fully in the dwell's mean, where averaging over the dwell
 // would shrink it. That is deliberate. On the blind null and stochastic cases (docs/calibration.md, "Dwell
 // drift") the averaged form covered the truth within 3σ in 0.970 and within 2σ in 0.91; this form gives 0.981
-// and 0.943. The fitted model is never the sensor's noise, and that margin is what the misfit needs. The three variances are fitted by restricted maximum likelihood (REML: the
-// columns X profiled out and the log det of their information counted, so what the fit absorbs does not bias
-// the level low). The likelihood is the diagnosis's: the Kalman whitening of stochastic.h over the dwells in time
+// and 0.943. The fitted model is never the sensor's noise, and that margin is what the misfit needs.
+//
+// The three variances and τ are fitted by restricted maximum likelihood (REML: the columns X profiled out and the
+// log det of their information counted, so what the fit absorbs does not bias the level low). The likelihood is the diagnosis's: the Kalman whitening of stochastic.h over the dwells in time
 // order, the wander and the flicker bank as its Gauss-Markov states.
 //
 // The estimate itself stays the caller's (weighted least squares over every sample); only its covariance
@@ -54,7 +55,9 @@ struct DwellDrift {
   double gain = 0;
   int dwells = 0;
   int rank = 0;           // rank of X (the columns REML profiles out)
-  // gain > kDriftGainThreshold (2 dof at p = 0.05). A channel without adopted drift keeps its white σ.
+  // gain > kDriftGainThreshold (χ² on 2 dof at p 0.05; with τ and the flicker searched too, a white series passes
+  // it by chance a little more often: ≤ 20 of 200 in DwellDrift.WhiteDwellMeansAdoptNoDrift). A channel without
+  // adopted drift keeps its white σ.
   bool adopted = false;
   // When adopted: every drift the data do not reject against the best, −2 log L_R within kDriftPlausible of it
   // (the best first; at most kDriftPlausibleMax, in order of likelihood). A log of a few correlation times pins
