@@ -4,6 +4,7 @@
 // LSB far below σ so quantisation is negligible.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <functional>
 #include <random>
@@ -30,6 +31,11 @@ inline model::ModelSpec unguarded(model::ModelSpec spec) {
   if (!spec.extra.is_object()) spec.extra = nlohmann::json::object();
   spec.extra["dwell_guard_s"] = 0.0;
   return spec;
+}
+
+// docs/examples/model-thermal.json without the dwell guard (see unguarded).
+inline model::ModelSpec thermal_spec() {
+  return unguarded(model::load_model_spec(IMUFORGE_SOURCE_DIR "/docs/examples/model-thermal.json"));
 }
 
 struct Dwell {
@@ -68,6 +74,13 @@ struct Config {
   double T_ref_C = 25.0;
   std::vector<Dwell> dwells = tumble_and_rates();
 };
+
+// The per-sample noise σ per channel of a config (solver::Sigma6's layout).
+inline std::array<double, 6> sigma_of(const Config& c) {
+  std::array<double, 6> s{};
+  for (int k = 0; k < 6; ++k) s[static_cast<size_t>(k)] = c.sigma[k];
+  return s;
+}
 
 inline LogMeta meta(const Config& c) {
   LogMeta m;
