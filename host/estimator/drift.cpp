@@ -1,9 +1,9 @@
 #include "host/estimator/drift.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <string>
 
 #include <Eigen/Cholesky>
@@ -47,26 +47,23 @@ double reml(const DwellSeries& s, const Eigen::MatrixXd& rows, const DwellDrift&
     m.bank_tau_s = d.flicker_tau_s;
   }
   m.seg_bias_var = d.offset_var;
-  Eigen::MatrixXd innov(S, r + 1);
-  Eigen::VectorXd F(S);
   // Zero durations: the wander is taken as constant over each dwell (drift.h says why).
   const std::vector<double> dur0(static_cast<size_t>(S), 0.0);
-  whiten_segment(m, s.t_s, dur0, rows, 0.0, innov, F, nullptr, nullptr, &s.white_var);
-  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(r + 1, r + 1);
+  double logS = 0.0;
+  const NormalEquations ne =
+      gls_normal_equations(m, s.t_s, dur0, rows, 0.0, nullptr, nullptr, &logS, nullptr, nullptr, &s.white_var);
+  if (r == 0) return logS + ne.cost;
+  // The columns' GLS fit on the estimator core, as the diagnosis's whole-log wander takes it: its kept columns'
+  // information is cov⁻¹ (all of them: rows' columns are orthonormal).
+  std::vector<int> cols(static_cast<size_t>(r));
+  std::iota(cols.begin(), cols.end(), 0);
+  const SubsetFit f = fit_subset(ne, cols);
   double logdet = 0.0;
-  for (Eigen::Index i = 0; i < S; ++i) {
-    M.selfadjointView<Eigen::Lower>().rankUpdate(innov.row(i).transpose(), 1.0 / F[i]);
-    logdet += std::log(F[i]);
+  if (!f.kept.empty()) {
+    const Eigen::LLT<Eigen::MatrixXd> llt(f.cov);
+    for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) logdet -= 2.0 * std::log(llt.matrixL()(i, i));
   }
-  if (r == 0) return logdet + M(0, 0);
-  const Eigen::MatrixXd Mxx = M.bottomRightCorner(r, r).selfadjointView<Eigen::Lower>();
-  const Eigen::VectorXd mxy = M.col(0).tail(r);
-  const Eigen::LLT<Eigen::MatrixXd> llt(Mxx);
-  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
-  const Eigen::MatrixXd L = llt.matrixL();
-  const double logdet_x = 2.0 * L.diagonal().array().log().sum();
-  const double chi2 = M(0, 0) - mxy.dot(llt.solve(mxy));
-  return logdet + logdet_x + chi2;
+  return logS + f.rss + logdet;
 }
 
 Eigen::MatrixXd reml_rows(const DwellSeries& s, const Eigen::MatrixXd& Q) {
@@ -186,11 +183,11 @@ DwellDrift fit_dwell_drift(const DwellSeries& s) {
     }
     return d;
   };
-  std::vector<std::pair<double, DwellDrift>> seen;  // every drift evaluated, for the plausible set
+  std::vector<std::pair<double, Eigen::Vector4d>> seen;  // every point evaluated, for the plausible set
   auto L = [&](const Eigen::Vector4d& x) {
-    DwellDrift d = drift_of(x);
+    const DwellDrift d = drift_of(x);
     const double v = reml(s, rows, d);
-    if (d.any()) seen.emplace_back(v, std::move(d));
+    if (d.any()) seen.emplace_back(v, x);
     return v;
   };
   const double off = kNone - 1.0;
@@ -237,8 +234,9 @@ DwellDrift fit_dwell_drift(const DwellSeries& s) {
   if (out.adopted) {
     std::sort(seen.begin(), seen.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     auto near = [](double a, double b) { return std::abs(std::log((a + 1e-300) / (b + 1e-300))) < 0.05; };
-    for (const auto& [v, d] : seen) {
+    for (const auto& [v, x] : seen) {
       if (v > best + kDriftPlausible) break;
+      const DwellDrift d = drift_of(x);
       // The Nelder-Mead path revisits near-copies of its best point; they add nothing to an envelope.
       bool dup = false;
       for (const DwellDrift& p : out.plausible)

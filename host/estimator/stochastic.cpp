@@ -149,7 +149,8 @@ estimator::NormalEquations gls_normal_equations(const StochasticModel& m, const 
                                                 const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
                                                 double rw_prior_var, const std::vector<int>* seg_of,
                                                 const std::vector<char>* missing, double* sum_log_S,
-                                                Eigen::MatrixXd* innov_out, Eigen::VectorXd* S_out) {
+                                                Eigen::MatrixXd* innov_out, Eigen::VectorXd* S_out,
+                                                const Eigen::VectorXd* extra_var) {
   const int n = static_cast<int>(rows.rows()), P = static_cast<int>(rows.cols()) - 1;
   Eigen::MatrixXd innov_local;
   Eigen::VectorXd S_local;
@@ -157,7 +158,7 @@ estimator::NormalEquations gls_normal_equations(const StochasticModel& m, const 
   Eigen::VectorXd& S = S_out ? *S_out : S_local;
   innov.resize(n, P + 1);
   S.resize(n);
-  whiten_segment(m, t_s, dur_s, rows, rw_prior_var, innov, S, missing, seg_of);
+  whiten_segment(m, t_s, dur_s, rows, rw_prior_var, innov, S, missing, seg_of, extra_var);
   estimator::NormalEquations ne(P);
   double logS = 0;
   for (int i = 0; i < n; ++i) {

@@ -86,11 +86,12 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
 // Every GLS fit of the diagnosis (the selection's per-fold sums, the tests of one effect under a raised wander,
 // heating against cooling, the form check, the whole-log likelihood) goes through here, so a change to the
 // likelihood is one change. Optional outputs: Σ log S over the blocks used (for −2 log L), and the innovations
-// and their variances themselves. O(n · (P² + P · states)).
+// and their variances themselves; extra_var as whiten_segment takes it. O(n · (P² + P · states)).
 estimator::NormalEquations gls_normal_equations(const StochasticModel& m, const std::vector<double>& t_s,
                                                 const std::vector<double>& dur_s, const Eigen::Ref<const Eigen::MatrixXd>& rows,
                                                 double rw_prior_var, const std::vector<int>* seg_of,
                                                 const std::vector<char>* missing = nullptr, double* sum_log_S = nullptr,
-                                                Eigen::MatrixXd* innov_out = nullptr, Eigen::VectorXd* S_out = nullptr);
+                                                Eigen::MatrixXd* innov_out = nullptr, Eigen::VectorXd* S_out = nullptr,
+                                                const Eigen::VectorXd* extra_var = nullptr);
 
 }  // namespace imuforge::estimator

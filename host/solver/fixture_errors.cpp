@@ -145,7 +145,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
         return in;
       };
       const model::MeasureInput in0 = input(kin[0]);
-      if (dwell_sums_.empty() || row.segment != cur_seg) {
+      if (keep_dwell_sums_ && (dwell_sums_.empty() || row.segment != cur_seg)) {
         cur_seg = row.segment;
         dwell_sums_.emplace_back();
         for (DwellSums& ds : dwell_sums_.back()) ds.sphi = Eigen::VectorXd::Zero(n);
@@ -170,11 +170,13 @@ class FixtureErrorsProblem : public NonlinearProblem {
           ne.rhs.noalias() += (w * r) * jrow;
           ne.cost += w * r * r;
           rss[static_cast<size_t>(c)] += r * r;
-          DwellSums& ds = dwell_sums_.back()[static_cast<size_t>(c)];
-          ds.n += 1;
-          ds.t_mid_s += row.t_s;  // a sum until the pass ends
-          ds.sz += r;
-          ds.sphi += jrow;
+          if (keep_dwell_sums_) {
+            DwellSums& ds = dwell_sums_.back()[static_cast<size_t>(c)];
+            ds.n += 1;
+            ds.t_mid_s += row.t_s;  // a sum until the pass ends
+            ds.sz += r;
+            ds.sphi += jrow;
+          }
         }
       }
       ++count;
@@ -194,8 +196,11 @@ class FixtureErrorsProblem : public NonlinearProblem {
     for (auto& d : dwell_sums_)
       for (DwellSums& ds : d) ds.t_mid_s /= static_cast<double>(std::max(1LL, ds.n));
   }
-  // Per dwell (time order) and channel, at the last linearize: residual sum, Jacobian-row sum, n, mean time
-  // (the drift model's input; docs/calibration.md "Dwell drift").
+  // From the next linearize on, keep per dwell its residual and Jacobian-row sums (the LM iterations before the
+  // solution need none).
+  void keep_dwell_sums() { keep_dwell_sums_ = true; }
+  // Per dwell (time order) and channel, at the last linearize after keep_dwell_sums(): residual sum, Jacobian-row
+  // sum, n, mean time (the drift model's input; docs/calibration.md "Dwell drift").
   std::vector<DwellSums> dwell_sums(int c) const {
     std::vector<DwellSums> out;
     for (const auto& d : dwell_sums_)
@@ -219,6 +224,7 @@ class FixtureErrorsProblem : public NonlinearProblem {
   double dwell_guard_s_ = kDefaultDwellGuard_s;
   mutable long long samples_ = 0;
   mutable Sigma6 rms_{};
+  bool keep_dwell_sums_ = false;
   mutable std::vector<std::array<DwellSums, 6>> dwell_sums_;
 };
 
@@ -409,6 +415,7 @@ FixtureErrorsResult solve_fixture_errors(io::LogReader& log, const model::ModelS
   res.iterations = lm.iterations;
   res.noise_sigma = sigma;
   NormalEquations tmp(prob.num_params());
+  prob.keep_dwell_sums();
   prob.linearize(lm.theta, tmp);  // residual RMS and the dwells' sums at the solution
   res.residual_rms = prob.residual_rms();
   res.samples = prob.samples();
