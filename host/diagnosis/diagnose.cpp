@@ -278,6 +278,11 @@ struct Block {
   double z[kNumAxes] = {};
   // mean features
   double t = 0, T = kNaN, Tdot = 0, d = 0, f[3] = {}, w[3] = {}, absw = 0;
+  double absTdot = 0;  // block mean of |Ṫ| (signatures: what heating and cooling alike do)
+  // The inputs through first-order lags of kMemoryTaus_s (signatures: an output that remembers what the input was,
+  // as a suspension that creeps after each pose change does). Filled over the blocks in time order
+  // (fill_input_memory).
+  double f_mem[3][4] = {}, w_mem[3][4] = {};
   std::array<double, kHysteresisGrid> d_grid{};  // block mean of d at each threshold of kHysteresisGrid_C
   double ww[3] = {}, ff[3][3] = {};          // block means of ω_k² and f_k f_l (signatures)
   double wq[3][3] = {};                      // block means of ω_k ω_l of the gyro's reference as evaluated (mount)
@@ -511,6 +516,28 @@ class ShiftedReference {
   std::deque<Ref> ref_;
   bool eof_ = false;
 };
+
+constexpr double kMemoryTaus_s[4] = {3.0, 10.0, 30.0, 100.0};
+
+// Block::f_mem / w_mem: each input low-passed at each time constant, stepped from block to block at their mid
+// times (a block's mean input taken as the input over the interval before it: exact where the input changes at
+// the blocks' edges, as on instantaneous pose changes). O(blocks).
+void fill_input_memory(std::vector<Block>& blocks) {
+  double f[3][4] = {}, w[3][4] = {}, t_prev = 0;
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    Block& x = blocks[b];
+    for (int j = 0; j < 4; ++j) {
+      const double a = b == 0 ? 1.0 : 1.0 - std::exp(-std::max(x.t - t_prev, 0.0) / kMemoryTaus_s[j]);
+      for (int k = 0; k < 3; ++k) {
+        f[k][j] += a * (x.f[k] - f[k][j]);
+        w[k][j] += a * (x.w[k] - w[k][j]);
+        x.f_mem[k][j] = f[k][j];
+        x.w_mem[k][j] = w[k][j];
+      }
+    }
+    t_prev = x.t;
+  }
+}
 
 struct Pass1 {
   std::vector<Block> blocks;
@@ -842,6 +869,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
     for (int a = 0; a < kNumAxes; ++a) b.z[a] /= n;
     b.t /= n;
     b.Tdot /= n;
+    b.absTdot /= n;
     b.d /= n;
     for (double& x : b.d_grid) x /= n;
     b.absw /= n;
@@ -1047,6 +1075,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       b.t1 = cur.t_s;
       b.t += in.t_s;
       b.Tdot += in.Tdot_C_s;
+      b.absTdot += std::fabs(in.Tdot_C_s);
       b.d += d;
       for (int k = 0; k < kHysteresisGrid; ++k) b.d_grid[static_cast<std::size_t>(k)] += d_grid[static_cast<std::size_t>(k)];
       double wn = 0;
@@ -1110,6 +1139,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       out.n_units = static_cast<int>(group.size());
     }
   }
+  fill_input_memory(out.blocks);
   return out;
 }
 
@@ -1239,6 +1269,19 @@ std::vector<SignatureFunction> signature_functions(const std::vector<Block>& blo
   for (int k = 0; k < 3; ++k) feats.push_back({std::string("w_") + ax[k] + "*time", [k, tm](const Block& b) { return b.w[k] * (b.t - tm); }});
   feats.push_back({"T", [](const Block& b) { return b.T; }});
   feats.push_back({"Tdot", [](const Block& b) { return b.Tdot; }});
+  // The die's temperature rate either way: a thermal gradient across the package stresses it alike when heating and
+  // when cooling (temp_rate, odd in Ṫ, takes half of it; temp_hysteresis, constant between turns, another part).
+  feats.push_back({"|Tdot|", [](const Block& b) { return b.absTdot; }});
+  // The inputs as a lag remembers them (Block::f_mem): a residual the model's columns see as the input itself
+  // minus that memory (a creeping suspension) is left with the memory once the input's own part is projected off.
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 4; ++j) {
+      char name[48];
+      std::snprintf(name, sizeof name, "f_%c low-passed at %.0f s", ax[k], kMemoryTaus_s[j]);
+      feats.push_back({name, [k, j](const Block& b) { return b.f_mem[k][j]; }});
+      std::snprintf(name, sizeof name, "w_%c low-passed at %.0f s", ax[k], kMemoryTaus_s[j]);
+      feats.push_back({name, [k, j](const Block& b) { return b.w_mem[k][j]; }});
+    }
   feats.push_back({"time", [](const Block& b) { return b.t; }});
   for (int k = 0; k < 3; ++k) {
     feats.push_back({"sin(table angle " + std::to_string(k) + ")", [k](const Block& b) { return b.sin_a[k]; }});
@@ -3495,13 +3538,35 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           w.beyond_reason = "sinusoid";
         else if (std::max(w.trend.gain, w.trend.settle_gain) > o.wander_trend_chi2)
           w.beyond_reason = w.trend.gain >= w.trend.settle_gain ? "drift" : "settling";
+        // Does the residual the raise takes follow a logged input (noise_model.h, input_bias)? The signature
+        // library's functions, time left to the drift check above; the bar carries the look-elsewhere count.
+        if (w.beyond_reason.empty() && o.wander_follows_chi2 > 0) {
+          std::vector<double> pv_sig(static_cast<std::size_t>(B), 1.0);
+          std::vector<SignatureFunction> feats = signature_functions(blocks, pv_sig);
+          feats.erase(std::remove_if(feats.begin(), feats.end(), [](const SignatureFunction& f) { return f.first == "time"; }),
+                      feats.end());
+          Eigen::MatrixXd F(B, static_cast<Eigen::Index>(feats.size()));
+          for (std::size_t k = 0; k < feats.size(); ++k)
+            for (int b = 0; b < B; ++b) {
+              const double v = feats[k].second(blocks[static_cast<std::size_t>(b)]);
+              F(b, static_cast<Eigen::Index>(k)) = std::isfinite(v) ? v : 0.0;
+            }
+          w.follows = input_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, F, &blk_seg);
+          if (w.follows.best >= 0) w.follows_input = feats[static_cast<std::size_t>(w.follows.best)].first;
+          const double bar = o.wander_follows_chi2 + 2.0 * std::log(std::max(1, w.follows.n_functions));
+          if (std::getenv("IMUFORGE_DIAG_TRACE"))
+            std::fprintf(stderr, "follows %s: %s LR %.1f (own %.1f) over %d functions, bar %.1f\n", axis_name(a),
+                         w.follows_input.c_str(), w.follows.gain, w.follows.own_gain, w.follows.n_functions, bar);
+          if (w.follows.gain > bar) w.beyond_reason = "follows";
+        }
       }
       w.beyond_limit = !w.beyond_reason.empty();
       // Within the held-out threshold, but what is left is neither a catalog effect nor stationary wander
       // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a
       // random walk, and the floor it raised hides the residual from the held-out χ².
       const bool structured = w.beyond_reason == "jump" || w.beyond_reason == "periodic" || w.beyond_reason == "sinusoid" ||
-                              w.beyond_reason == "drift" || w.beyond_reason == "settling" || w.beyond_reason == "input";
+                              w.beyond_reason == "drift" || w.beyond_reason == "settling" || w.beyond_reason == "input" ||
+                              w.beyond_reason == "follows";
       // A coarse output step's rounding bias is a function of the input (noise_model.h, output_step), and an input
       // the temperature carries slowly through the steps turns it into a slow oscillation of the means: a line or
       // a jump in the whole log's residual that is neither wander nor an effect outside the catalog (varied6
@@ -3524,6 +3589,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       // 4.6x gains only 15 for and the transient 41 beside it: `unseen` ooc-warmup-0 accel.x).
       const double shape_gain = w.beyond_reason == "drift"      ? w.trend.line_gain
                                 : w.beyond_reason == "settling" ? w.trend.settle_own_gain
+                                : w.beyond_reason == "follows"  ? w.follows.own_gain
                                                                 : 0.0;
       if (structured && !w.within_rounding && std::max(pick->gain, shape_gain) >= o.wander_unexplained_gain &&
           !over(R.gap_after, a)) {

@@ -229,6 +229,10 @@ struct Options {
   // Measured (stop 44): true drifts 32–82 and true warm-ups 30–157 (the `unseen` suite); on the 884 other axes
   // asked in 475 cases of six suites, the line at most 16.3 and the settling at most 15.4 (docs/diagnosis.md § 5).
   double wander_trend_chi2 = 25.0;
+  // Nor is a raise that a function of the logged inputs beats (noise_model.h, input_bias; Wander::follows): the
+  // likelihood ratio of the raise beside the signature library's best function against the raise alone above
+  // this plus 2 ln(number of functions asked), the look-elsewhere count. 0 turns the check off.
+  double wander_follows_chi2 = 25.0;
   // Nor is a raise whose innovations' spread grows with the inputs (noise_model.h, WholeLogWander::hetero_*: the
   // rotation speed and the axis' own input magnitude, Koenker–Breusch–Pagan): a bias wander adds the same variance
   // whatever the table does. Refused when the test's p is below wander_max_hetero_p, the variance where the fit puts
@@ -392,9 +396,13 @@ struct DiagnosisResult {
                                       // in time beats the raise: Options::wander_sinusoid_margin), or "drift" /
                                       // "settling" (a line in time / a settling transient is significant beside
                                       // the raise: Options::wander_trend_chi2), or "input" (its innovations'
-                                      // spread grows with the inputs: Options::wander_max_hetero_p)
+                                      // spread grows with the inputs: Options::wander_max_hetero_p), or
+                                      // "follows" (a function of the logged inputs beats the raise:
+                                      // Options::wander_follows_chi2)
     PeriodicBias sinusoid;            // the best sinusoid, where the raise passed the other checks (else gain 0)
     TrendBias trend;                  // the drift and settling shapes, asked with the sinusoid (else gains 0)
+    InputBias follows;                // the best function of the logged inputs beside the raise (else gain 0)
+    std::string follows_input;        // its name in the signature library ("|Tdot|", "f_x^2", ...)
     // A jump or line on an axis with a coarse output step: the final model's residual rms over the blocks, and
     // whether it is within twice the rounding staircase's sigma (then the axis is not named unexplained for it).
     double residual_rms = 0;

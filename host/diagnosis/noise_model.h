@@ -184,6 +184,25 @@ TrendBias trend_bias(const StochasticModel& m, const std::vector<double>& t_s, c
                      const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
                      const WholeLogWander& raise, const std::vector<int>* seg_of = nullptr);
 
+// A function of the logged inputs against the raised wander that would take it, as trend_bias asks of a line in
+// time: the whole log's residual follows something the table or the chamber did, which stationary wander cannot
+// (a bias that grows with how fast the die's temperature moves either way is one slow bump per ramp; the dwells
+// read it as flicker and a raise 4–8× takes it: `unseen4` ooc-abs_temp_rate, stop 54). functions: one column per
+// candidate (block means, rows' order; diagnose.cpp passes the signature library of residual_signature less
+// time, which trend_bias asks). gain: the largest likelihood ratio of the raise beside one function against the
+// raise alone, each with its level profiled as in trend_bias; own_gain: that function's Δχ² under m's own level;
+// best: its column (−1: none); n_functions: the non-zero columns asked (the look-elsewhere count the caller's
+// bar carries). The functions are screened at the raise's own level and the six likeliest there profiled.
+// O(n · (P + F)² + F · P³ + 42 · n · (P + 6)²), F = functions.cols().
+struct InputBias {
+  double gain = 0, own_gain = 0;
+  int best = -1, n_functions = 0;
+};
+InputBias input_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
+                     const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
+                     const WholeLogWander& raise, const Eigen::Ref<const Eigen::MatrixXd>& functions,
+                     const std::vector<int>* seg_of = nullptr);
+
 // Rounding quantiser of an output (docs/diagnosis.md § 2, "output step"). A quantiser whose step Δ is not
 // small against the noise ahead of it (σ below about 0.6 Δ) leaves a bias in the mean of a constant input x that
 // depends on where x falls between two steps: Σ_k (−1)^k (Δ/πk) e^{−2π²k²σ²/Δ²} sin(2πkx/Δ). Over the poses of a

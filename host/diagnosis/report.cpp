@@ -179,6 +179,11 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
         line += "; not a stationary bias wander either: what is left grows with the input (its spread " +
                 fmt("%.0f", w.measured.hetero_ratio) + "x larger where the rate or the axis' own input is largest; Breusch-Pagan LM " +
                 fmt("%.0f", w.measured.hetero_lm) + ")";
+      else if (w.beyond_limit && w.beyond_reason == "follows")
+        line += "; not a stationary bias wander either: " + w.follows_input + " explains the whole log's residual beside a " +
+                (w.kind == "flicker" ? "flicker" : "random walk") + " " + fmt("%.2g", w.measured.ratio) +
+                "x the dwells' (likelihood ratio " + fmt("%.0f", w.follows.gain) + " over " + std::to_string(w.follows.n_functions) +
+                " functions of the logged inputs asked)";
       else if (w.beyond_limit && (w.beyond_reason == "drift" || w.beyond_reason == "settling"))
         line += "; not a stationary bias wander either: the bias " +
                 (w.beyond_reason == "drift"
@@ -267,6 +272,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
                : r.wander[u].beyond_reason == "drift"    ? "a linear drift of " + fmt("%.2g", r.wander[u].trend.slope_per_s * 3600.0) + " " + unit_of(a) + " per hour"
                : r.wander[u].beyond_reason == "settling" ? "a settling of time constant " + fmt("%.0f", r.wander[u].trend.settle_tau_s) + " s"
                : r.wander[u].beyond_reason == "input"    ? std::string("a residual that grows with the input")
+               : r.wander[u].beyond_reason == "follows"  ? "a residual that follows " + r.wander[u].follows_input
                                                        : std::string("a bias step")) +
               ", within the rounding (residual rms " + fmt("%.2g", r.wander[u].residual_rms) + ", under twice its sigma)";
     out.push_back(line);
@@ -435,6 +441,8 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"drift_lr", num(r.wander[u].trend.gain)}, {"drift_per_h", num(r.wander[u].trend.slope_per_s * 3600.0)},
                                                  {"settling_lr", num(r.wander[u].trend.settle_gain)}, {"settling_tau_s", num(r.wander[u].trend.settle_tau_s)},
                                                  {"settling_amplitude", num(r.wander[u].trend.settle_amplitude)},
+                                                 {"follows_input", r.wander[u].follows_input}, {"follows_lr", num(r.wander[u].follows.gain)},
+                                                 {"follows_functions", r.wander[u].follows.n_functions},
                                                  {"walk_flicker_B", num(r.wander[u].walk_flicker_B)}, {"beyond_limit", r.wander[u].beyond_limit}, {"beyond_reason", r.wander[u].beyond_reason}, {"adopted", r.wander[u].adopted}}},
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
                                             {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))},
