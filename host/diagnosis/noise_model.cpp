@@ -537,15 +537,6 @@ PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& 
 
 namespace {
 
-// −2 log L (ML: Σ log S + χ², not REML: see trend_bias in the header) of rows = aug's first c columns, and of
-// rows beside each of aug's remaining S shape columns in turn, under the model's own level (own, own_shape, coef:
-// each shape's coefficient there) and, when raise is not kNone, profiled over the raise's own level from 1/16 to
-// 2× the raise and the model's own (best, best_shape). The one profile trend_bias and input_bias ask.
-// O(42 · n · (c + S)² + 42 · S · c³).
-struct ShapeProfile {
-  double own = 0, best = 0;
-  std::vector<double> own_shape, best_shape, coef;
-};
 // −2 log L (ML) of rows = aug's first c columns under w (nullptr: m's own level), returned, and beside each shape
 // column in turn (with_shape; coef: each shape's coefficient, when asked).
 double shape_ml(const StochasticModel& m, const WholeLogWander* w, const std::vector<double>& t_s,
@@ -572,6 +563,15 @@ double shape_ml(const StochasticModel& m, const WholeLogWander* w, const std::ve
   return base;
 }
 
+// −2 log L (ML: Σ log S + χ², not REML: see trend_bias in the header) of rows = aug's first c columns, and of
+// rows beside each of aug's remaining S shape columns in turn, under the model's own level (own, own_shape, coef:
+// each shape's coefficient there) and, when raise is not kNone, profiled over the raise's own level from 1/16 to
+// 2× the raise and the model's own (best, best_shape). The one profile trend_bias and input_bias ask.
+// O(42 · n · (c + S)² + 42 · S · c³).
+struct ShapeProfile {
+  double own = 0, best = 0;
+  std::vector<double> own_shape, best_shape, coef;
+};
 ShapeProfile profile_shapes(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                             const Eigen::MatrixXd& aug, int c, double rw_prior_var, double duration_s,
                             const WholeLogWander& raise, const std::vector<int>* seg_of) {
