@@ -3489,6 +3489,8 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   }
 
   // ---- Whole-log wander of the final model (diagnose() decides whether to carry it).
+  Eigen::MatrixXd follows_F;                // the functions the `follows` check asks, one column each (input_bias)
+  std::vector<std::string> follows_names;  // and their names
   if (o.whole_log_wander)
     for (int a = 0; a < kNumAxes; ++a) {
       const auto ua = static_cast<std::size_t>(a);
@@ -3541,18 +3543,22 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
         // Does the residual the raise takes follow a logged input (noise_model.h, input_bias)? The signature
         // library's functions, time left to the drift check above; the bar carries the look-elsewhere count.
         if (w.beyond_reason.empty() && o.wander_follows_chi2 > 0) {
-          std::vector<double> pv_sig(static_cast<std::size_t>(B), 1.0);
-          std::vector<SignatureFunction> feats = signature_functions(blocks, pv_sig);
-          feats.erase(std::remove_if(feats.begin(), feats.end(), [](const SignatureFunction& f) { return f.first == "time"; }),
-                      feats.end());
-          Eigen::MatrixXd F(B, static_cast<Eigen::Index>(feats.size()));
-          for (std::size_t k = 0; k < feats.size(); ++k)
-            for (int b = 0; b < B; ++b) {
-              const double v = feats[k].second(blocks[static_cast<std::size_t>(b)]);
-              F(b, static_cast<Eigen::Index>(k)) = std::isfinite(v) ? v : 0.0;
+          if (follows_names.empty()) {  // the same for every axis: built once
+            std::vector<double> pv_sig(static_cast<std::size_t>(B), 1.0);
+            std::vector<SignatureFunction> feats = signature_functions(blocks, pv_sig);
+            feats.erase(std::remove_if(feats.begin(), feats.end(), [](const SignatureFunction& f) { return f.first == "time"; }),
+                        feats.end());
+            follows_F.resize(B, static_cast<Eigen::Index>(feats.size()));
+            for (std::size_t k = 0; k < feats.size(); ++k) {
+              follows_names.push_back(feats[k].first);
+              for (int b = 0; b < B; ++b) {
+                const double v = feats[k].second(blocks[static_cast<std::size_t>(b)]);
+                follows_F(b, static_cast<Eigen::Index>(k)) = std::isfinite(v) ? v : 0.0;
+              }
             }
-          w.follows = input_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, F, &blk_seg);
-          if (w.follows.best >= 0) w.follows_input = feats[static_cast<std::size_t>(w.follows.best)].first;
+          }
+          w.follows = input_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, follows_F, &blk_seg);
+          if (w.follows.best >= 0) w.follows_input = follows_names[static_cast<std::size_t>(w.follows.best)];
           const double bar = o.wander_follows_chi2 + 2.0 * std::log(std::max(1, w.follows.n_functions));
           if (std::getenv("IMUFORGE_DIAG_TRACE"))
             std::fprintf(stderr, "follows %s: %s LR %.1f (own %.1f) over %d functions, bar %.1f\n", axis_name(a),

@@ -652,7 +652,7 @@ InputBias input_bias(const StochasticModel& m, const std::vector<double>& t_s, c
   if (n <= P + 3 || S == 0 || functions.rows() != n || !(duration_s > 0) || static_cast<int>(t_s.size()) != n ||
       raise.kind == WholeLogWander::kNone)
     return out;
-  // Each function scaled to unit weighted spread (the solve's conditioning; a likelihood ratio does not see it).
+  // Each function scaled to unit spread (the solve's conditioning; a likelihood ratio does not see it).
   std::vector<int> live;
   Eigen::MatrixXd aug(n, c + S);
   aug.leftCols(c) = rows;

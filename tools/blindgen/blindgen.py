@@ -499,7 +499,7 @@ def build_scenario(rng, spec):
 
 # ----------------------------------------------------------------------------------------------------
 # Out-of-catalog effects (functions of the inputs that no catalog effect has), added to y in SI.
-def ooc_signal(o, t, ang, w_imu, f_imu, T):
+def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     kind = o['kind']
     if kind == 'heading':        # bias following the table heading (outer angle): motor / table field
         return o['amplitude'] * np.cos(ang[:, 2] - o.get('phase_rad', 0.0))
@@ -518,7 +518,7 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T):
     if kind == 'temp_step':      # a bias that jumps where the die crosses T0, both ways, no hysteresis (a package
         return o['amplitude'] * (T >= o['T0_C'])  # stress relief or a regulator changing mode at a temperature)
     if kind == 'abs_temp_rate':  # a bias that grows with how fast the die's temperature moves, either way (a thermal
-        return o['coefficient'] * np.abs(np.gradient(T, t))  # gradient across the package stresses it alike when heating or
+        return o['coefficient'] * np.abs(Tdot)  # gradient across the package stresses it alike when heating or
         # cooling; the catalog's temp_rate is odd in the rate and temp_hysteresis constant between turns)
     j = AX.index(o['axis'])
     if kind == 'rate_odd':       # accel bias linear in the rate about another axis (odd in w; no catalog accel
@@ -694,13 +694,12 @@ def generate(case, out_dir, fmt='csv'):
         for o in case.get('ooc', []):
             if o['sensor'] == s:
                 sig = np.zeros_like(ys)
-                sig[:, AX.index(o['axis'])] = ooc_signal(o, t, ang_s, w_i, f_i, die)
+                sig[:, AX.index(o['axis'])] = ooc_signal(o, t, ang_s, w_i, f_i, die, Tdot)
                 ys += sig
                 if case.get('score_snr', True):
                     # what of the out-of-catalog term the base model cannot absorb: below DETECTABLE_SNR no
                     # diagnosis can be asked to name its axis (battery.py scores ooc cases over both)
-                    snr['ooc:%s.%s' % (s, o['axis'])] = signal_snr(sig, s, case, scn, _chunks(scn, t, seg_idx), die,
-                                                                   T_ref, f_ref, w_ref)
+                    snr['ooc:%s.%s' % (s, o['axis'])] = signal_snr(sig, s, case, scn, chunks, die, T_ref, f_ref, w_ref)
         y[s] = ys
 
     # noise and output stage, per axis in order: + turn-on + noise -> quantization -> saturation -> counts
@@ -998,10 +997,10 @@ OOC_KINDS_UNSEEN2 = ['rate_odd', 'cross_w2', 'temp_step', 'scale_age']
 # have no polynomial shape (a g-sensitivity moving with temperature, a g-dependent scale factor, a bias that flips
 # with the direction of rotation)
 OOC_KINDS_UNSEEN3 = ['g_temp', 'w_times_f', 'sign_rate']
-# kinds that sit on one sensor only (their axis is drawn among that sensor's)
 # written at stop 54 and first run on the stop-53 binary (suite 'unseen4'): a bias even in the die's temperature
 # rate, an accel cross-axis square (IEEE 1293's K_pp, not in the catalog), an accel creep after each pose change
 OOC_KINDS_UNSEEN4 = ['abs_temp_rate', 'cross_f2', 'creep']
+# kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate')
 OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'cross_f2', 'creep')
 
