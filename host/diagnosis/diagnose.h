@@ -420,12 +420,15 @@ struct DiagnosisResult {
   std::vector<Step> selected;
   std::vector<std::string> dropped;        // effects removed again by a backward step ("gyro.g_sensitivity")
   // Pairs of candidates of one sensor that explain the same signature (neither qualifies once the other is
-  // in the model): the one with the larger AIC gain (LR − 2·dof) is selected, the other is named here.
+  // in the model): the one with the larger AIC gain (LR − 2·dof) is selected, or the one nested in the other's
+  // span with fewer components the data need (diagnose.cpp, the nested equivalent); the other is named here.
   struct Ambiguity {
     std::string chosen, alternative;  // "accel.scale_nonlinearity"
     double lr_chosen = 0, lr_alternative = 0;
     int dof_chosen = 0, dof_alternative = 0;
-    double delta_aic = 0;             // AIC gain of chosen − alternative (≥ 0)
+    double delta_aic = 0;             // AIC gain of chosen − alternative (≥ 0 unless nested)
+    int components_chosen = 0, components_alternative = 0;  // the components the data need of each
+    bool nested = false;              // chosen as nested in the alternative (its extra terms not significant)
   };
   std::vector<Ambiguity> ambiguous;
   // A selected effect's component that moves by > 3σ when an unselected effect the data cannot exclude
@@ -501,6 +504,10 @@ struct DiagnosisResult {
   std::string plot_variable, plot_axis;
   std::vector<ScatterPoint> scatter;
 };
+
+// Why an ambiguous pair's choice went the way it did, in words for the warning and the ranking's outcome:
+// "fewer components the data need (3 against 6)" or "larger AIC gain, on the components the data need, by 1.4".
+std::string ambiguity_reason(const DiagnosisResult::Ambiguity& a);
 
 // The base model: the deterministic parameters the user's model estimates.
 struct BaseModel {

@@ -91,13 +91,12 @@ std::string outcome(const DiagnosisResult& r, const CandidateScore& c) {
     if (st.sensor == sensor && st.effect == effect) {
       for (const auto& a : r.ambiguous)
         if (a.chosen == key)
-          return "selected, ambiguous with " + a.alternative + " (larger AIC gain by " + fmt("%.1f", a.delta_aic) +
-                 "; the campaign does not tell them apart)";
+          return "selected, ambiguous with " + a.alternative + " (" + ambiguity_reason(a) + "; the campaign does not tell them apart)";
       return st.from_reference_steps ? "selected (from the reference steps)" : "selected";
     }
   for (const auto& a : r.ambiguous)
     if (a.alternative == key)
-      return "not selected: ambiguous with " + a.chosen + ", chosen by a larger AIC gain by " + fmt("%.1f", a.delta_aic) +
+      return "not selected: ambiguous with " + a.chosen + ", chosen for its " + ambiguity_reason(a) +
              " (the campaign does not tell them apart)";
   for (const auto& [k, why] : r.withdrawn_by_check)
     if (k == key) return "withdrawn: " + why;
@@ -355,7 +354,9 @@ nlohmann::json to_json(const DiagnosisResult& r) {
   for (const auto& a : r.ambiguous)
     amb.push_back({{"chosen", a.chosen}, {"alternative", a.alternative}, {"lr_chosen", num(a.lr_chosen)},
                    {"lr_alternative", num(a.lr_alternative)}, {"dof_chosen", a.dof_chosen},
-                   {"dof_alternative", a.dof_alternative}, {"delta_aic", num(a.delta_aic)}});
+                   {"dof_alternative", a.dof_alternative}, {"delta_aic", num(a.delta_aic)},
+                   {"components_chosen", a.components_chosen}, {"components_alternative", a.components_alternative},
+                   {"nested", a.nested}});
   j["ambiguous"] = amb;
   nlohmann::json sens = nlohmann::json::array();
   for (const auto& v : r.sensitivity)

@@ -38,6 +38,9 @@ std::vector<EffectInfo> build_effects() {
       "a_j min(u_j, 0): extra scale for negative input");
   add(Effect::kCrossCoupling, "cross_coupling", "input dependence", kMaskBoth, K::kDeterministic, offdiag(),
       "1/unit", "c_jk u_j u_k (on-axis times cross-axis input)");
+  add(Effect::kCrossAxisNonlinearity, "cross_axis_nonlinearity", "input dependence", kMaskAccel, K::kDeterministic,
+      {"x.yy", "x.zz", "x.yz", "y.xx", "y.zz", "y.zx", "z.xx", "z.yy", "z.xy"}, "1/(m/s^2)",
+      "K_j,kl f_k f_l over the cross axes k, l != j: squares K_pp, K_oo and product K_po (IEEE 1293)");
   add(Effect::kGSensitivity, "g_sensitivity", "gyro g-dependence", kMaskGyro, K::kDeterministic,
       {"xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"}, "(rad/s)/(m/s^2)", "G_jk f_k");
   add(Effect::kG2Sensitivity, "g2_sensitivity", "gyro g-dependence", kMaskGyro, K::kDeterministic,

@@ -31,6 +31,7 @@ enum class Effect : std::uint8_t {
   kBias, kScale, kMisalign,                                  // basic
   kBiasTemp, kScaleTemp, kMisalignTemp,                      // temperature
   kScaleNonlinearity, kScaleAsymmetry, kCrossCoupling,       // input dependence
+  kCrossAxisNonlinearity,                                    // input dependence (accelerometer, IEEE 1293)
   kGSensitivity, kG2Sensitivity,                             // gyro g-dependence
   kSizeEffect,                                               // accelerometer geometry
   kTempHysteresis, kTempRate,                                // thermal history

@@ -50,6 +50,7 @@ CompiledTriad compile(const ParamSet& p, Sensor s, double T_ref_C) {
       case Effect::kCrossCoupling: c.cc[j][k] = v; break;
       case Effect::kGSensitivity: c.G[j][k] = v; break;
       case Effect::kG2Sensitivity: c.G2[j][g2_pair(k, l)] = v; break;
+      case Effect::kCrossAxisNonlinearity: c.xn[j][g2_pair(k, l)] = v; break;
       case Effect::kSizeEffect: c.r[j][k] = v; break;
       case Effect::kTempHysteresis: c.hyst[j] = v; break;
       case Effect::kTempRate: c.trate[j] = v; break;
@@ -91,6 +92,8 @@ Vec3 measure(const CompiledTriad& c, const MeasureInput& in, const MeasureOption
     if (gyro) {
       for (int k = 0; k < 3; ++k) acc += c.G[j][k] * in.f[k];
       for (int q = 0; q < 6; ++q) acc += c.G2[j][q] * in.f[kPairK[q]] * in.f[kPairL[q]];
+    } else {
+      for (int q = 0; q < 6; ++q) acc += c.xn[j][q] * u[kPairK[q]] * u[kPairL[q]];
     }
     acc += c.hyst[j] * in.d + c.trate[j] * in.Tdot_C_s;
     if (opt.include_timing) acc -= (c.latency_s + c.ppm * 1e-6 * in.t_s) * ud[j];
@@ -147,6 +150,7 @@ inline void add_column(const RegressorPlan::Column& c, SampleTerms& x, double* c
     case Effect::kCrossCoupling: col[j] += u[j] * u[k]; break;
     case Effect::kGSensitivity: col[j] += x.in.f[k]; break;
     case Effect::kG2Sensitivity: col[j] += x.in.f[k] * x.in.f[l]; break;
+    case Effect::kCrossAxisNonlinearity: col[j] += u[k] * u[l]; break;
     case Effect::kSizeEffect: col[j] += x.A(j, k); break;
     case Effect::kTempHysteresis: col[j] += x.in.d; break;
     case Effect::kTempRate: col[j] += x.in.Tdot_C_s; break;

@@ -57,6 +57,7 @@ struct CompiledTriad {
   double cc[3][3] = {};        // [j][k], k≠j
   double G[3][3] = {};         // gyro only
   double G2[3][6] = {};        // [j][term] 0=xy, 1=yz, 2=zx, 3=xx, 4=yy, 5=zz
+  double xn[3][6] = {};        // accel only, cross-axis nonlinearity: [j][term] as G2, terms in f_k f_l (k, l != j)
   double r[3][3] = {};         // size effect lever arm of axis j: r[j][0..2]
   double hyst[3] = {}, trate[3] = {};
   double latency_s = 0.0, ppm = 0.0;

@@ -47,7 +47,7 @@ double step_of(model::ParamId id, double g) {
   const model::ParamInfo& pi = model::param_info(id);
   int d = 1;
   if (pi.effect == model::Effect::kScaleNonlinearity) d = pi.power;
-  else if (pi.effect == model::Effect::kCrossCoupling) d = 2;
+  else if (pi.effect == model::Effect::kCrossCoupling || pi.effect == model::Effect::kCrossAxisNonlinearity) d = 2;
   return 1e-6 * g / std::pow(g, d);
 }
 
@@ -154,6 +154,9 @@ GravityFit fit_gravity(const std::vector<Pose>& poses, double g, const std::arra
   return fit_from(poses, g, active, extra, Eigen::VectorXd());
 }
 
+// IEEE 1293's cross-axis nonlinearity (its product and square differences are seen on static poses) is not among
+// them: its 9 terms beside these 15 let the 10 % held-out rule add a term on 3 of 10 noise-only pose sets, against
+// at most 1 (TermSelection.NothingIsAddedWithoutASystematicTermAndNothingTriedOnFewPoses).
 std::vector<model::ParamId> gravity_candidate_terms() {
   std::vector<model::ParamId> out;
   for (model::Effect e : {model::Effect::kScaleNonlinearity, model::Effect::kScaleAsymmetry, model::Effect::kCrossCoupling})

@@ -48,7 +48,8 @@ GravityFit fit_gravity(const std::vector<Pose>& poses, double gravity_mps2, cons
                        const std::vector<model::ParamId>& extra = {});
 
 // The accelerometer terms of the catalog the gravity-magnitude fit may add (scale_nonlinearity k2, k3,
-// scale_asymmetry, cross_coupling: every input-dependent accelerometer term that a static pose excites).
+// scale_asymmetry, cross_coupling). Not the cross-axis nonlinearity, which a static pose excites too: beside
+// these its 9 terms cost the selection its false-add rate on noise (gravity_fit.cpp).
 std::vector<model::ParamId> gravity_candidate_terms();
 
 // Forward selection by leave-poses-out cross-validation: starting from the 9-term fit, each round tries

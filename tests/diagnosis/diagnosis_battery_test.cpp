@@ -33,6 +33,7 @@ const std::vector<Target>& targets() {
       {"accel", "scale_nonlinearity", "x.k2", "accel.x", false},
       {"gyro", "scale_asymmetry", "z", "gyro.z", false},
       {"accel", "cross_coupling", "xy", "accel.x", false},
+      {"accel", "cross_axis_nonlinearity", "x.yz", "accel.x", false},
       {"gyro", "cross_coupling", "zx", "gyro.z", false},
       {"gyro", "g_sensitivity", "xz", "gyro.x", false},
       {"gyro", "g2_sensitivity", "y.yz", "gyro.y", false},

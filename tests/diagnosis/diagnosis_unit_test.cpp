@@ -2532,9 +2532,10 @@ TEST(DiagnosisPipeline, ABiasThatFlipsWithTheRotationIsNamedByItsDirection) {
 // stand-in on gyro.x (docs/diagnosis.md § 5, "Stand-in check"), withdrawn there, and the effect kept on y and z,
 // where it is the sensor's own. Modelled on `varied17` mixed-w_cubed, where such x components had held gyro.x's
 // held-out χ²/dof down to 28 (40.5 without them). Fails with the check off. Hand-made log, independent of host/sim.
-TEST(DiagnosisPipeline, ComponentsThatOnlyStandInForTheUnexplainedFunctionAreWithdrawn) {
+// The log, its gyro.x bias c_speed·|ω| (1e-4 in this test; the next one shares the log at another size):
+std::vector<Sample> speed_bias_log(double c_speed) {
   const double g = 9.80665, fs = 100.0;
-  const double c_speed = 1e-4, k2y = -1.2e-4, k2z = -1.1e-4, k3z = -1.9e-4;  // k: blindgen's mixed-w_cubed sizes
+  const double k2y = -1.2e-4, k2z = -1.1e-4, k3z = -1.9e-4;  // blindgen's mixed-w_cubed sizes
   std::mt19937_64 rng(7);
   std::normal_distribution<double> n01;
   std::vector<Sample> log;
@@ -2570,6 +2571,11 @@ TEST(DiagnosisPipeline, ComponentsThatOnlyStandInForTheUnexplainedFunctionAreWit
     const double a_rad_s = 300.0 * M_PI / 180.0;
     run({g * n[0], g * n[1], g * n[2]}, {a_rad_s * n[0], a_rad_s * n[1], a_rad_s * n[2]}, 16.0, 4.0);
   }
+  return log;
+}
+
+TEST(DiagnosisPipeline, ComponentsThatOnlyStandInForTheUnexplainedFunctionAreWithdrawn) {
+  const std::vector<Sample> log = speed_bias_log(1e-4);
   VectorSource src(log);
   const DiagnosisResult r = diagnose(src, basic_model(), Options{});
   const bool selected = std::any_of(r.selected.begin(), r.selected.end(),
@@ -2593,6 +2599,73 @@ TEST(DiagnosisPipeline, ComponentsThatOnlyStandInForTheUnexplainedFunctionAreWit
   });
   EXPECT_TRUE(warned) << "the stand-in check trimmed it (the form check does not see it on this log)";
   for (const auto& x : r.unexplained) EXPECT_EQ(x.axis, "gyro.x") << x.axis << " is at its noise";
+}
+
+// The same log with the |ω| bias 50× smaller and the held-out threshold lifted out of reach: gyro.x can be named only
+// by the whole-log wander's `follows` check, after selection (docs/diagnosis.md § 5, "Stand-ins on an axis named
+// for what it follows"). The stand-in check asks that question first, and what stands in for |w| on x (the
+// scale_nonlinearity's x components, and a scale_asymmetry) is withdrawn under the raise |w| beat, the
+// nonlinearity kept on y and z. Before stop 55 such an axis kept its stand-ins (`varied23` ooc-abs_rate-1:
+// accel.size_effect and cross_coupling beside an accel.y bias in |ω|). Fails with the check off.
+TEST(DiagnosisPipeline, StandInsOnAnAxisNamedForWhatItFollowsAreWithdrawn) {
+  VectorSource src(speed_bias_log(2e-6));
+  Options o;
+  o.unexplained_chi2_dof = 1e9;
+  const DiagnosisResult r = diagnose(src, basic_model(), o);
+  std::string warn;
+  for (const auto& w : r.warnings) warn += w + "\n";
+  std::printf("wander gyro.x: %s follows %s LR %.1f; selected %zu\n%s", r.wander[3].beyond_reason.c_str(),
+              r.wander[3].follows_input.c_str(), r.wander[3].follows.gain, r.selected.size(), warn.c_str());
+  const Unexplained* u = nullptr;
+  for (const auto& x : r.unexplained)
+    if (x.axis == "gyro.x") u = &x;
+  ASSERT_NE(u, nullptr) << "gyro.x must be named";
+  EXPECT_EQ(u->basis, "wander");
+  EXPECT_EQ(r.wander[3].beyond_reason, "follows");
+  for (const auto id : imuforge::model::effect_params(imuforge::model::Sensor::kGyro, imuforge::model::Effect::kScaleNonlinearity)) {
+    const std::string name = imuforge::model::param_info(id).name;
+    if (name.find("scale_nonlinearity.x.") != std::string::npos)
+      EXPECT_EQ(r.final_ids.count(id), 0u) << name << ": a stand-in for what gyro.x follows";
+    if (name == "gyro.scale_nonlinearity.y.k2" || name == "gyro.scale_nonlinearity.z.k2" || name == "gyro.scale_nonlinearity.z.k3")
+      EXPECT_EQ(r.final_ids.count(id), 1u) << name << ": the sensor's own";
+  }
+  EXPECT_NE(warn.find("a stand-in for what gyro.x follows"), std::string::npos) << warn;
+}
+
+// An accelerometer k2 f_x² (and 0.7 of it on y) beside a misalignment that moves with temperature, on tilted static
+// poses at four chamber temperatures. With |f| = g on every pose, IEEE 1293's cross-axis squares K_pp f_p² +
+// K_oo f_o² at K_pp = K_oo are the same signature, with more components. The catalog effect the sensor has must be
+// the one selected: a selected effect that an unselected one nested in its span, with fewer components, can replace
+// (the richer one's extra terms not significant beside it) is replaced (docs/diagnosis.md § 5, "A nested
+// equivalent"). Without that pass seed 5 selects the cross-axis squares. Hand-made log, independent of host/sim.
+TEST(DiagnosisPipeline, AnAccelerometerK2IsNotReadAsTheCrossAxisSquares) {
+  const double fs = 100.0, k2 = 3e-4, mt = 2e-4;  // 1/(m/s²); rad/°C
+  for (unsigned seed = 1; seed <= 8; ++seed) {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> n01;
+    std::vector<Sample> log;
+    int seg = 0;
+    for (const double T : {10.0, 25.0, 40.0, 25.0})
+      for (const Pose& f : two_axis_tilts()) {
+        for (int i = 0; i < static_cast<int>(6.0 * fs); ++i) {
+          Sample s = referenced_sample(static_cast<double>(log.size()) / fs, seg);
+          s.temp_C = T;
+          for (int j = 0; j < 3; ++j) s.f[j] = f[static_cast<std::size_t>(j)], s.w[j] = 0.0;
+          for (int j = 0; j < 3; ++j) s.y[j] = s.f[j] + 2e-3 * n01(rng), s.y[3 + j] = 5e-4 * n01(rng);
+          s.y[0] += k2 * s.f[0] * s.f[0] + mt * (T - 25.0) * s.f[1];
+          s.y[1] += 0.7 * k2 * s.f[1] * s.f[1];
+          log.push_back(s);
+        }
+        ++seg;
+      }
+    VectorSource src(log);
+    const DiagnosisResult r = diagnose(src, basic_model(), Options{});
+    std::set<std::string> sel;
+    for (const auto& st : r.selected) sel.insert(st.sensor + "." + st.effect);
+    EXPECT_TRUE(sel.count("accel.scale_nonlinearity")) << "seed " << seed;
+    EXPECT_FALSE(sel.count("accel.cross_axis_nonlinearity")) << "seed " << seed;
+    EXPECT_TRUE(sel.count("accel.misalign_temp")) << "seed " << seed;
+  }
 }
 
 // A gyro bias that goes with f_y³ (a cubic g-sensitivity: no catalog effect has it). On the ±1 g faces it equals

@@ -59,21 +59,23 @@ TARGETS = {
 }
 
 
-def varied_fresh(seed0, per_class_null, per_class_stoch, n_random, ooc_each):
-    """Cases of blindgen size 'varied' at seeds seed0 + 0.., +100.., +200.., +300.. (ooc), +390.. (mixed)."""
+def varied_fresh(seed0, per_class_null, per_class_stoch, n_random, ooc_each, full_catalog=False):
+    """Cases of blindgen size 'varied' at seeds seed0 + 0.., +100.., +200.., +300.. (ooc), +390.. (mixed).
+    full_catalog: the random and mixed cases draw from every catalog effect (blindgen.TYPICAL_LATER too)."""
     cases = []
+    extra = {'full_catalog': True} if full_catalog else {}
     for i, cls in enumerate(blindgen.CLASSES * per_class_null):
         cases.append(('null-%s-%d' % (cls, i), 'null', seed0 + i, {'cls': cls, 'size': 'varied'}))
     for i, cls in enumerate(blindgen.CLASSES * per_class_stoch):
         cases.append(('stoch-%s-%d' % (cls, i), 'stochastic', seed0 + 100 + i, {'cls': cls, 'size': 'varied'}))
     for i in range(n_random):
-        cases.append(('random-%d' % i, 'random', seed0 + 200 + i, {'size': 'varied'}))
+        cases.append(('random-%d' % i, 'random', seed0 + 200 + i, dict({'size': 'varied'}, **extra)))
     for k, kind in enumerate(blindgen.OOC_KINDS):
         for i in range(ooc_each):
             name = 'ooc-%s-%d' % (kind, i) if ooc_each > 1 else 'ooc-%s' % kind
             seed = seed0 + 300 + 10 * k + i if ooc_each > 1 else seed0 + 300 + k
             cases.append((name, 'ooc', seed, {'ooc': kind, 'size': 'varied'}))
-        cases.append(('mixed-%s' % kind, 'mixed', seed0 + (390 if ooc_each > 1 else 400) + k, {'ooc': kind, 'size': 'varied'}))
+        cases.append(('mixed-%s' % kind, 'mixed', seed0 + (390 if ooc_each > 1 else 400) + k, dict({'ooc': kind, 'size': 'varied'}, **extra)))
     return cases
 
 
@@ -255,6 +257,18 @@ def suite(name):
     if name == 'varied24':
         # the varied schedule at new seeds (26000+), added at stop 54 and run on the stop-53 binary before any change
         return varied_fresh(26000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2)
+    if name == 'varied25':
+        # the varied schedule at new seeds (28000+), added at stop 55 and run on the stop-54 binary before any change
+        return varied_fresh(28000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2)
+    if name == 'varied26':
+        # the varied schedule at new seeds (29000+), added at stop 55 after its changes were fixed: the random and
+        # mixed cases draw from the whole catalog, IEEE 1293's cross-axis nonlinearity (new at stop 55) included,
+        # and four single cases of it at the class magnitudes raised to an SNR of 10-30
+        cases = varied_fresh(29000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2, full_catalog=True)
+        for i, cls in enumerate(['consumer', 'automotive', 'tactical', 'automotive']):
+            cases.append(('single-accel.cross_axis_nonlinearity-%d' % i, 'single', 29500 + i,
+                          {'effect': 'accel.cross_axis_nonlinearity', 'cls': cls, 'size': 'varied'}))
+        return cases
     if name == 'unseen4':
         # out-of-catalog kinds written at stop 54 and first run on the stop-53 binary (a bias even in the die's
         # temperature rate, an accel cross-axis square, an accel creep after each pose change); seeds 27000+
@@ -310,7 +324,8 @@ def make(work, name, kind, seed, opt, fmt, reuse=False):
     if sensor:
         sensor = os.path.join(REPO, sensor)
     case = blindgen.make_case(kind, seed, opt2.get('size', 'full'), sensor, opt2.get('cls'), opt2.get('effect'),
-                              opt2.get('g2_squares', False), opt2.get('ooc'), opt2.get('timing'))
+                              opt2.get('g2_squares', False), opt2.get('ooc'), opt2.get('timing'),
+                              opt2.get('full_catalog', False))
     truth, _ = blindgen.write_case(case, d, fmt, name)
     truth['case_hash'] = h
     with open(tp, 'w') as f:
@@ -636,7 +651,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'varied23', 'varied24', 'unseen', 'unseen2', 'unseen3', 'unseen4'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'varied23', 'varied24', 'varied25', 'varied26', 'unseen', 'unseen2', 'unseen3', 'unseen4'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')

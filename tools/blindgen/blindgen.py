@@ -289,11 +289,11 @@ def hysteresis_direction(T, threshold):
 # Sensor model (docs/formats.md "Sensor model file", docs/error-model.md catalog).
 AX = 'xyz'
 DETERMINISTIC = ['bias', 'scale', 'misalign', 'bias_temp', 'scale_temp', 'misalign_temp', 'scale_nonlinearity',
-                 'scale_asymmetry', 'cross_coupling', 'g_sensitivity', 'g2_sensitivity', 'size_effect',
-                 'temp_hysteresis', 'temp_rate', 'timing']
+                 'scale_asymmetry', 'cross_coupling', 'cross_axis_nonlinearity', 'g_sensitivity', 'g2_sensitivity',
+                 'size_effect', 'temp_hysteresis', 'temp_rate', 'timing']
 STOCHASTIC = ['white_noise', 'bias_instability', 'rate_random_walk', 'quantization', 'saturation', 'turn_on_bias']
 GYRO_ONLY = {'g_sensitivity', 'g2_sensitivity'}
-ACCEL_ONLY = {'size_effect'}
+ACCEL_ONLY = {'size_effect', 'cross_axis_nonlinearity'}
 
 
 def applies(sensor, effect):
@@ -353,6 +353,12 @@ def deterministic_output(eff, u, f, w, wdot, T, Tdot, d, T_ref, sensor):
         for k, ak in enumerate(AX):
             if k != j:
                 y[:, j] += c('cross_coupling', aj + ak) * uj * u[:, k]
+        if sensor == 'accel':
+            # IEEE 1293 cross-axis nonlinearity: the squares (K_pp, K_oo) and the product (K_po) of the two other axes
+            for kl in ('xx', 'yy', 'zz', 'xy', 'yz', 'zx'):
+                xn = c('cross_axis_nonlinearity', aj + '.' + kl)
+                if xn != 0.0:
+                    y[:, j] += xn * u[:, AX.index(kl[0])] * u[:, AX.index(kl[1])]
         if sensor == 'gyro':
             for k, ak in enumerate(AX):
                 y[:, j] += c('g_sensitivity', aj + ak) * f[:, k]
@@ -523,9 +529,6 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     j = AX.index(o['axis'])
     if kind == 'rate_odd':       # accel bias linear in the rate about another axis (odd in w; no catalog accel
         return o['coefficient'] * w_imu[:, AX.index(o['input_axis'])]  # effect is odd in the rate)
-    if kind == 'cross_f2':       # accel bias in the square of ANOTHER axis' specific force (IEEE 1293's cross-axis
-        return o['coefficient'] * f_imu[:, AX.index(o['input_axis'])] ** 2  # nonlinearity K_pp; the catalog's accel
-        # terms are k2 f_j^2 on-axis and c f_j f_k on-axis x cross-axis)
     if kind == 'creep':          # anelastic creep of the proof mass' suspension: after a change of the input the
         u = f_imu[:, j]          # output keeps moving with time constant tau (its steady part is a scale factor, left
         a = 1.0 - math.exp(-1.0 / (o['fs_hz'] * o['tau_s']))  # out: the bias is the transient)
@@ -872,7 +875,15 @@ TYPICAL = {
 }
 # IEEE 1431 g^2 squares (not in the catalog before issue 12): drawn only when asked (--g2-squares).
 G2_SQUARES = ['x.xx', 'x.yy', 'x.zz', 'y.xx', 'y.yy', 'y.zz', 'z.xx', 'z.yy', 'z.zz']
+# Effects the catalog gained after the suites above were fixed: drawn only where a case asks for the whole catalog
+# (full_catalog), so that every earlier seed still draws what it drew. IEEE 1293's cross-axis nonlinearity (stop
+# 55) at the magnitudes of the class' own k2 (by analogy, '~').
+TYPICAL_LATER = {
+    'accel.cross_axis_nonlinearity': (['x.yy', 'x.zz', 'x.yz', 'y.xx', 'y.zz', 'y.zx', 'z.xx', 'z.yy', 'z.xy'],
+                                      {'consumer': 2.5e-4, 'automotive': 1.02e-5, 'tactical': 1.3e-6}),   # ~
+}
 CANDIDATES = sorted(TYPICAL)
+CANDIDATES_ALL = sorted(list(TYPICAL) + list(TYPICAL_LATER))
 CLASSES = ['consumer', 'automotive', 'tactical']
 STOCH_AXES = ['accel.x', 'accel.y', 'accel.z', 'gyro.x', 'gyro.y', 'gyro.z']
 
@@ -917,7 +928,7 @@ def base_only(sensor_json):
 
 
 def draw_effect(rng, key, cls, scale=1.0, g2_squares=False):
-    comps, mag = TYPICAL[key]
+    comps, mag = TYPICAL[key] if key in TYPICAL else TYPICAL_LATER[key]
     if key.endswith('.timing'):
         lat, ppm = mag[cls]
         out = {}
@@ -998,11 +1009,12 @@ OOC_KINDS_UNSEEN2 = ['rate_odd', 'cross_w2', 'temp_step', 'scale_age']
 # with the direction of rotation)
 OOC_KINDS_UNSEEN3 = ['g_temp', 'w_times_f', 'sign_rate']
 # written at stop 54 and first run on the stop-53 binary (suite 'unseen4'): a bias even in the die's temperature
-# rate, an accel cross-axis square (IEEE 1293's K_pp, not in the catalog), an accel creep after each pose change
-OOC_KINDS_UNSEEN4 = ['abs_temp_rate', 'cross_f2', 'creep']
+# rate and an accel creep after each pose change. Its third kind, an accel bias in another axis' f² (IEEE 1293's
+# K_pp), became the catalog's cross_axis_nonlinearity at stop 55 and left the out-of-catalog kinds.
+OOC_KINDS_UNSEEN4 = ['abs_temp_rate', 'creep']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate')
-OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'cross_f2', 'creep')
+OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep')
 
 
 def ooc_params(ooc_kind, amp, rng, scenario):
@@ -1046,8 +1058,6 @@ def ooc_params(ooc_kind, amp, rng, scenario):
         return dict(amplitude=amp, duration_s=None)  # filled once the duration is known
     if ooc_kind == 'abs_temp_rate':  # amp at the chamber's slew rate
         return dict(coefficient=amp / (scenario['slew_C_per_min'] / 60.0))
-    if ooc_kind == 'cross_f2':
-        return dict(coefficient=amp / 9.80665 ** 2, input_axis=None)  # set per axis
     if ooc_kind == 'creep':  # amp: the transient just after a 1 g step
         return dict(coefficient=amp / 9.80665, tau_s=float(rng.uniform(5, 30)), fs_hz=float(scenario['sample_rate_hz']))
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
@@ -1055,7 +1065,7 @@ def ooc_params(ooc_kind, amp, rng, scenario):
 
 def ooc_fill_axis(o, rng):
     """The parts of an out-of-catalog term that depend on the axis it sits on."""
-    if o['kind'] in ('cross_w2', 'cross_f2'):
+    if o['kind'] == 'cross_w2':
         o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
     if o['kind'] == 'scale_age':  # the scale change over the run gives amp at the largest input (1 g, or the top rate)
         top = o.pop('_top_rate')
@@ -1063,8 +1073,9 @@ def ooc_fill_axis(o, rng):
 
 
 def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, g2_squares=False, ooc_kind=None,
-              timing=None):
+              timing=None, full_catalog=False):
     rng = np.random.default_rng(np.random.SeedSequence([seed, 12]))
+    candidates = CANDIDATES_ALL if full_catalog else CANDIDATES
     cls = cls or str(rng.choice(CLASSES))
     truth = {'kind': kind, 'sensor_class': cls, 'ooc': [], 'noise_extra': []}
     ooc = []
@@ -1078,13 +1089,13 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
     gyro_range = float(g.get('range', 0)) or float(g['lsb']) * 2 ** (int(g.get('bits', 16)) - 1)
     scenario = default_scenario(rng, size, math.degrees(gyro_range))
     if kind == 'random':
-        keys = rng.choice(CANDIDATES, size=int(rng.integers(3, 7)), replace=False)
+        keys = rng.choice(candidates, size=int(rng.integers(3, 7)), replace=False)
         for key in keys:
             sensor['effects'][str(key)] = draw_effect(rng, str(key), cls, g2_squares=g2_squares)
     elif kind == 'single':
         # at the class magnitude, raised (never lowered) to an SNR of 10-30 on this scenario: the same
         # regime as the project's own single-effect battery (10 sigma), from an independent generator
-        key = effect or str(rng.choice(CANDIDATES))
+        key = effect or str(rng.choice(candidates))
         sensor['effects'][key] = draw_effect(rng, key, cls, g2_squares=g2_squares)
         target_snr = float(rng.uniform(10, 30))
         if timing is not None:  # a given latency/clock drift (e.g. >= 1 s accumulated over the run), not scaled
@@ -1121,7 +1132,7 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
     elif kind == 'mixed':
         # a realistic sensor: 3-6 catalog effects AND one out-of-catalog bias on one axis (20-50 segment sigma).
         # The diagnosis must keep the catalog effects and name the axis, selecting nothing for it.
-        keys = rng.choice(CANDIDATES, size=int(rng.integers(3, 7)), replace=False)
+        keys = rng.choice(candidates, size=int(rng.integers(3, 7)), replace=False)
         for key in keys:
             sensor['effects'][str(key)] = draw_effect(rng, str(key), cls, g2_squares=g2_squares)
         ooc_kind = ooc_kind or str(rng.choice(OOC_KINDS))
@@ -1287,13 +1298,15 @@ def main(argv):
     c.add_argument('--ooc', help='kind ooc: heading | bias_step | w_cubed | abs_rate | periodic | g_cubed | angle2 | rate_memory | warmup | drift | rate_odd | cross_w2 | temp_step | scale_age')
     c.add_argument('--timing', help='kind single, effect *.timing: JSON of the components, e.g. {"ppm": 400}')
     c.add_argument('--g2-squares', action='store_true', help='also draw IEEE 1431 g^2 squares (x.xx ...)')
+    c.add_argument('--full-catalog', action='store_true',
+                   help='kinds random, single, mixed: draw from every catalog effect, those added after the first suites too')
     c.add_argument('--format', default='csv', choices=['csv', 'bin'])
     sub.add_parser('selftest', help='closed-form checks of the generator itself')
     a = ap.parse_args(argv)
     if a.cmd == 'selftest':
         return 0 if selftest() else 1
     case = make_case(a.kind, a.seed, a.size, a.sensor, a.cls, a.effect, a.g2_squares, a.ooc,
-                     json.loads(a.timing) if a.timing else None)
+                     json.loads(a.timing) if a.timing else None, a.full_catalog)
     truth, info = write_case(case, a.out, a.format)
     print('%s: %d rows, %.0f s, beyond model: %s, unexplained: %s' % (info['log'], info['rows'], info['duration_s'],
           ' '.join(truth['beyond_model']) or '-', ' '.join(truth['unexplained_axes']) or '-'))

@@ -28,6 +28,7 @@ EFFECTS = [
     ('accel.scale_nonlinearity', {'x.k2': 1e-3, 'y.k3': 1e-4, 'z.k2': -1e-3}),
     ('accel.scale_asymmetry', {'x': 0.01, 'y': -0.02, 'z': 0.015}),
     ('accel.cross_coupling', {'xy': 1e-3, 'xz': -2e-3, 'yz': 1.5e-3, 'zx': 1e-3}),
+    ('accel.cross_axis_nonlinearity', {'x.yy': 1e-3, 'x.yz': -2e-3, 'y.zz': 1.5e-3, 'y.zx': -1e-3, 'z.xy': 1e-3, 'z.xx': -1e-3}),
     ('accel.size_effect', {'x.rx': 0.01, 'y.ry': -0.02, 'z.rz': 0.015, 'x.ry': 0.01, 'z.rx': -0.01}),
     ('gyro.bias', {'x': 0.01, 'y': -0.02, 'z': 0.03}),
     ('gyro.scale', {'x': 0.01, 'y': -0.02, 'z': 0.015}),
