@@ -2686,6 +2686,15 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     }
     return out;
   };
+  // The fitted signal X_e θ_e of effect (s, e) per block on one axis, under fit f of that axis.
+  auto effect_signal = [&](const AxisData& ad, const Fit& f, Sensor s, Effect e) {
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(B);
+    for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) {
+      const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f.kept[static_cast<std::size_t>(i)])]);
+      if (pi.sensor == s && pi.effect == e) c += ad.Xr.col(f.kept[static_cast<std::size_t>(i)]) * f.theta[i];
+    }
+    return c;
+  };
   std::map<std::pair<int, int>, int> times_dropped;
   for (int step = 0;; ++step) {
     std::vector<CandidateScore> sc = score_all(cur, cur_effects);
@@ -2824,13 +2833,14 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   // forward step meets such a pair against the model of its step, where an effect still missing can make the
   // richer one fit better for a while: `varied25` random-28 took the cross-axis squares at step 1, by an LR of 38
   // over a true k2 of SNR 151, with the sensor's misalign_temp not yet in. Against the final model each selected
-  // effect b is asked once more, as a nested test: an unselected candidate c of its sensor whose columns lie
+  // effect b is asked once more, as a nested test: an unselected candidate c of its sensor whose fitted signal lies
   // within the model's span (nested_share below kNestedShare), that has fewer components in the catalog and
   // needs no more of them here (best_subset_aic), that qualifies in b's place and beside which b does not qualify,
   // takes b's place; the pair is reported as ambiguous. Of two that need as many components here the one the
   // catalog gives fewer is taken (`varied24` random-11: a true k2 on y, 1 component against the cross-axis
-  // effect's y.xx and y.zz, chosen by the forward step's AIC at a margin the test calls nothing, p 0.73 and 0.69). Not nested pairs are the forward step's AIC tie-break alone: parsimony there read
-  // two true k2 as scale_asymmetry, whose |u| is another function (stop 55, `varied25` random-17 and 20). A bound
+  // effect's y.xx and y.zz, chosen by the forward step's AIC at a margin the test calls nothing, p 0.73 and 0.69).
+  // Pairs that are not nested keep the forward step's AIC tie-break alone: parsimony there read two true k2 as
+  // scale_asymmetry, whose |u| is another function (stop 55, `varied25` random-17 and 20). A bound
   // skips most pairs before the fold fits: what b adds beside c is at least the in-sample GLS χ² the swap costs,
   // so where that is significant at the level on b's dof, b qualifies. Timing and temp_hysteresis (the
   // reference's re-evaluation, the profiled threshold) are not asked.
@@ -2847,13 +2857,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       for (int a = a0; a < a0 + 3; ++a) {
         const AxisData& ad = ax[static_cast<std::size_t>(a)];
         const Eigen::VectorXd w = ad.vr.cwiseInverse().cwiseSqrt();
-        const Fit fc = fit_axis(ad, cols_for(ad, with_c), -1);
-        Eigen::VectorXd x = Eigen::VectorXd::Zero(B);
-        for (int i = 0; i < static_cast<int>(fc.kept.size()); ++i) {
-          const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(fc.kept[static_cast<std::size_t>(i)])]);
-          if (pi.sensor == cs && pi.effect == ce) x += ad.Xr.col(fc.kept[static_cast<std::size_t>(i)]) * fc.theta[i];
-        }
-        x = x.cwiseProduct(w);
+        const Eigen::VectorXd x = effect_signal(ad, fit_axis(ad, cols_for(ad, with_c), -1), cs, ce).cwiseProduct(w);
         const double mean = x.dot(w) / w.squaredNorm();
         const double sp = (x - mean * w).squaredNorm();
         if (!(sp > 0)) continue;
@@ -3096,15 +3100,6 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   auto over = [&](const Gap& g, int a) {
     const auto ua = static_cast<std::size_t>(a);
     return g.chi2_dof[ua] > o.unexplained_chi2_dof && !(std::isfinite(g.chi2_dof_wander[ua]) && g.chi2_dof_wander[ua] <= o.unexplained_chi2_dof);
-  };
-  // The fitted signal X_e θ_e of effect (s, e) per block on one axis, under fit f of that axis.
-  auto effect_signal = [&](const AxisData& ad, const Fit& f, Sensor s, Effect e) {
-    Eigen::VectorXd c = Eigen::VectorXd::Zero(B);
-    for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) {
-      const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f.kept[static_cast<std::size_t>(i)])]);
-      if (pi.sensor == s && pi.effect == e) c += ad.Xr.col(f.kept[static_cast<std::size_t>(i)]) * f.theta[i];
-    }
-    return c;
   };
   // A signal of rms `rms` on axis a within a coarse output step's rounding staircase (twice its σ): it cannot be
   // told from the rounding (the output-step check of an effect; the whole-log residual's structure).

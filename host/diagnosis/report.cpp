@@ -96,7 +96,7 @@ std::string outcome(const DiagnosisResult& r, const CandidateScore& c) {
     }
   for (const auto& a : r.ambiguous)
     if (a.alternative == key)
-      return "not selected: ambiguous with " + a.chosen + ", chosen for its " + ambiguity_reason(a) +
+      return "not selected: ambiguous with " + a.chosen + ", chosen: " + ambiguity_reason(a) +
              " (the campaign does not tell them apart)";
   for (const auto& [k, why] : r.withdrawn_by_check)
     if (k == key) return "withdrawn: " + why;
