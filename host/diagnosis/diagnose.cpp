@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <deque>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <optional>
@@ -537,6 +538,10 @@ class ShiftedReference {
 };
 
 constexpr double kMemoryTaus_s[4] = {3.0, 10.0, 30.0, 100.0};
+// The signature's hats of temperature (signature_functions): about kTempHats over the die's range, no closer
+// than kTempHatMinSpacing_C (a block's own temperature spread on a ramp, and the look-elsewhere count, bound it).
+constexpr double kTempHats = 10.0;
+constexpr double kTempHatMinSpacing_C = 2.0;
 
 // Block::f_mem / w_mem: each input low-passed at each time constant, stepped from block to block at their mid
 // times (a block's mean input taken as the input over the interval before it: exact where the input changes at
@@ -1287,6 +1292,24 @@ std::vector<SignatureFunction> signature_functions(const std::vector<Block>& blo
   for (int k = 0; k < 3; ++k) feats.push_back({std::string("f_") + ax[k] + "*time", [k, tm](const Block& b) { return b.f[k] * (b.t - tm); }});
   for (int k = 0; k < 3; ++k) feats.push_back({std::string("w_") + ax[k] + "*time", [k, tm](const Block& b) { return b.w[k] * (b.t - tm); }});
   feats.push_back({"T", [](const Block& b) { return b.T; }});
+  // A bias that departs from the polynomial in T over a few degrees only (a mode crossing, a regulator's or a
+  // package's change of state near one temperature): hats of T, each 1 at its knot and 0 a knot spacing away,
+  // knots spread over the die's range. Where the die passes a temperature more than once (heating and cooling,
+  // a plateau and the ramps to it), such a bias comes back each time, where a wander in time does not.
+  double Tlo = std::numeric_limits<double>::infinity(), Thi = -Tlo;
+  for (const auto& b : blocks)
+    if (std::isfinite(b.T)) {
+      Tlo = std::min(Tlo, b.T);
+      Thi = std::max(Thi, b.T);
+    }
+  if (Thi - Tlo >= 2.0 * kTempHatMinSpacing_C) {
+    const double dT = std::max((Thi - Tlo) / kTempHats, kTempHatMinSpacing_C);
+    for (double c = Tlo + 0.5 * dT; c < Thi; c += dT) {
+      char name[64];
+      std::snprintf(name, sizeof name, "T near %.0f degC (+-%.0f)", c, dT);
+      feats.push_back({name, [c, dT](const Block& b) { return std::isfinite(b.T) ? std::max(0.0, 1.0 - std::fabs(b.T - c) / dT) : 0.0; }});
+    }
+  }
   feats.push_back({"Tdot", [](const Block& b) { return b.Tdot; }});
   // The die's temperature rate either way: a thermal gradient across the package stresses it alike when heating and
   // when cooling (temp_rate, odd in Ṫ, takes half of it; temp_hysteresis, constant between turns, another part).
@@ -3497,6 +3520,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   // final model's wander below, which keeps the stand-in check's answer while `cur` is unchanged.
   Eigen::MatrixXd follows_F;                // the functions the `follows` check asks, one column each (input_bias)
   std::vector<std::string> follows_names;  // and their names
+  std::vector<int> temp_hats;               // the columns that are hats of the die temperature
   // Within the held-out threshold, but what is left is neither a catalog effect nor stationary wander
   // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a random
   // walk, and the floor it raised hides the residual from the held-out χ².
@@ -3562,6 +3586,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
                       feats.end());
           follows_F.resize(B, static_cast<Eigen::Index>(feats.size()));
           for (std::size_t k = 0; k < feats.size(); ++k) {
+            if (feats[k].first.rfind("T near", 0) == 0) temp_hats.push_back(static_cast<int>(k));
             follows_names.push_back(feats[k].first);
             for (int b = 0; b < B; ++b) {
               const double v = feats[k].second(blocks[static_cast<std::size_t>(b)]);
@@ -3576,6 +3601,41 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           std::fprintf(stderr, "follows %s: %s LR %.1f (own %.1f) over %d functions, bar %.1f\n", axis_name(a),
                        w.follows_input.c_str(), w.follows.gain, w.follows.own_gain, w.follows.n_functions, bar);
         if (w.follows.gain > bar) w.beyond_reason = "follows";
+        // The die temperature's hats together: a curve of T that no one hat draws (input_group_bias), at the
+        // level of the bar above (its χ²(1) tail) on as many degrees of freedom as hats.
+        if (w.beyond_reason.empty() && !temp_hats.empty()) {
+          Eigen::MatrixXd G(B, static_cast<Eigen::Index>(temp_hats.size()));
+          for (std::size_t k = 0; k < temp_hats.size(); ++k) G.col(static_cast<Eigen::Index>(k)) = follows_F.col(temp_hats[k]);
+          const InputBias gT = input_group_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, G, &blk_seg);
+          const double p_bar = chi2_sf(bar, 1.0);
+          const double p_group = gT.n_functions > 0 ? chi2_sf(gT.gain, gT.n_functions) : 1.0;
+          if (std::getenv("IMUFORGE_DIAG_TRACE"))
+            std::fprintf(stderr, "follows %s: a curve in T through %d hats LR %.1f (own %.1f) p %.2g, bar p %.2g\n", axis_name(a),
+                         gT.n_functions, gT.gain, gT.own_gain, p_group, p_bar);
+          if (p_group < p_bar) {
+            w.beyond_reason = "follows";
+            w.follows.gain = gT.gain;
+            w.follows.own_gain = gT.own_gain;
+            // The stand-in check asks one function, and the verdict names one: the hat the final model's residual
+            // correlates with most (blocks weighted at 1/vr, each about its weighted mean).
+            const Fit fr = fit_axis(ax[ua], cols_for(ax[ua], cur), -1);
+            const Eigen::VectorXd res = ax[ua].zr - fitted_means(ax[ua], fr), wt = ax[ua].vr.cwiseInverse();
+            auto centred = [&](const Eigen::VectorXd& v) { return Eigen::VectorXd(v.array() - v.dot(wt) / wt.sum()); };
+            const Eigen::VectorXd rc = centred(res);
+            int best = temp_hats.front();
+            double best_r2 = -1;
+            for (const int k : temp_hats) {
+              const Eigen::VectorXd hc = centred(follows_F.col(k));
+              const double hh = hc.cwiseProduct(wt).dot(hc), rr = rc.cwiseProduct(wt).dot(rc);
+              const double r2 = hh > 0 && rr > 0 ? std::pow(hc.cwiseProduct(wt).dot(rc), 2) / (hh * rr) : 0.0;
+              if (r2 > best_r2) best_r2 = r2, best = k;
+            }
+            w.follows.best = best;
+            w.follows.n_functions += 1;
+            w.follows_input = "a curve in T through " + std::to_string(gT.n_functions) + " hats (nearest " +
+                              follows_names[static_cast<std::size_t>(best)] + ")";
+          }
+        }
       }
     }
     w.beyond_limit = !w.beyond_reason.empty();

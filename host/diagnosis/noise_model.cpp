@@ -642,6 +642,15 @@ TrendBias trend_bias(const StochasticModel& m, const std::vector<double>& t_s, c
 
 constexpr int kInputBiasProfiled = 6;
 
+namespace {
+// A function column scaled to unit spread about its mean (the solve's conditioning; a likelihood ratio does not
+// see it); a constant column is returned as zeros.
+Eigen::VectorXd unit_spread(const Eigen::Ref<const Eigen::VectorXd>& col) {
+  const double sd = std::sqrt((col.array() - col.mean()).square().mean());
+  return sd > 0 ? Eigen::VectorXd(col / sd) : Eigen::VectorXd::Zero(col.size());
+}
+}  // namespace
+
 InputBias input_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                      const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
                      const WholeLogWander& raise, const Eigen::Ref<const Eigen::MatrixXd>& functions,
@@ -652,13 +661,11 @@ InputBias input_bias(const StochasticModel& m, const std::vector<double>& t_s, c
   if (n <= P + 3 || S == 0 || functions.rows() != n || !(duration_s > 0) || static_cast<int>(t_s.size()) != n ||
       raise.kind == WholeLogWander::kNone)
     return out;
-  // Each function scaled to unit spread (the solve's conditioning; a likelihood ratio does not see it).
   std::vector<int> live;
   Eigen::MatrixXd aug(n, c + S);
   aug.leftCols(c) = rows;
   for (int k = 0; k < S; ++k) {
-    const double sd = std::sqrt((functions.col(k).array() - functions.col(k).mean()).square().mean());
-    aug.col(c + k) = sd > 0 ? Eigen::VectorXd(functions.col(k) / sd) : Eigen::VectorXd::Zero(n);
+    aug.col(c + k) = unit_spread(functions.col(k));
     if (functions.col(k).cwiseAbs().maxCoeff() > 0.0) live.push_back(k);
   }
   out.n_functions = static_cast<int>(live.size());
@@ -683,6 +690,34 @@ InputBias input_bias(const StochasticModel& m, const std::vector<double>& t_s, c
       out.best = live[i];
     }
   }
+  return out;
+}
+
+InputBias input_group_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
+                           const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
+                           const WholeLogWander& raise, const Eigen::Ref<const Eigen::MatrixXd>& group,
+                           const std::vector<int>* seg_of) {
+  InputBias out;
+  const int n = static_cast<int>(rows.rows()), c = static_cast<int>(rows.cols()), P = c - 1;
+  if (n <= P + 3 || group.cols() == 0 || group.rows() != n || !(duration_s > 0) || static_cast<int>(t_s.size()) != n ||
+      raise.kind == WholeLogWander::kNone)
+    return out;
+  // rows = [z | columns]: the group joins the columns. Each model's −2 log L, profiled over the raise's level as
+  // trend_bias does, is the "best" of a profile with no shape of its own.
+  std::vector<int> live;
+  for (int k = 0; k < static_cast<int>(group.cols()); ++k)
+    if (group.col(k).cwiseAbs().maxCoeff() > 0.0) live.push_back(k);
+  out.n_functions = static_cast<int>(live.size());
+  if (live.empty() || n <= P + out.n_functions + 3) return out;
+  Eigen::MatrixXd with(n, c + out.n_functions);
+  with.leftCols(c) = rows;
+  for (std::size_t i = 0; i < live.size(); ++i) with.col(c + static_cast<Eigen::Index>(i)) = unit_spread(group.col(live[i]));
+  const Eigen::MatrixXd without = rows;
+  const ShapeProfile p0 = profile_shapes(m, t_s, dur_s, without, c, rw_prior_var, duration_s, raise, seg_of);
+  const ShapeProfile p1 = profile_shapes(m, t_s, dur_s, with, static_cast<int>(with.cols()), rw_prior_var, duration_s, raise, seg_of);
+  out.gain = std::max(p0.best - p1.best, 0.0);
+  out.own_gain = std::max(p0.own - p1.own, 0.0);
+  out.best = live.front();
   return out;
 }
 

@@ -203,6 +203,18 @@ InputBias input_bias(const StochasticModel& m, const std::vector<double>& t_s, c
                      const WholeLogWander& raise, const Eigen::Ref<const Eigen::MatrixXd>& functions,
                      const std::vector<int>* seg_of = nullptr);
 
+// The same question of a family of functions at once: the columns of `group` together (a flexible function of
+// one input, e.g. the hats of the die temperature that together draw any smooth curve of T). A single hat matches a
+// bump of another width only in part, and at a high SNR the misfit it leaves still wants the raise: the curve the
+// hats draw together takes the bump whole, and the raise with it (`unseen5` ooc-temp_bump). gain: the likelihood
+// ratio of the raise beside all of them against the raise alone, each profiled; own_gain: theirs under m's own
+// level; n_functions: the non-zero columns (the ratio's degrees of freedom). O(42 · n · (P + G)²), G =
+// group.cols().
+InputBias input_group_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
+                           const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
+                           const WholeLogWander& raise, const Eigen::Ref<const Eigen::MatrixXd>& group,
+                           const std::vector<int>* seg_of = nullptr);
+
 // Rounding quantiser of an output (docs/diagnosis.md § 2, "output step"). A quantiser whose step Δ is not
 // small against the noise ahead of it (σ below about 0.6 Δ) leaves a bias in the mean of a constant input x that
 // depends on where x falls between two steps: Σ_k (−1)^k (Δ/πk) e^{−2π²k²σ²/Δ²} sin(2πkx/Δ). Over the poses of a

@@ -526,6 +526,11 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     if kind == 'abs_temp_rate':  # a bias that grows with how fast the die's temperature moves, either way (a thermal
         return o['coefficient'] * np.abs(Tdot)  # gradient across the package stresses it alike when heating or
         # cooling; the catalog's temp_rate is odd in the rate and temp_hysteresis constant between turns)
+    if kind == 'motor_on':       # a bias while the table turns, whatever its rate or axis: the drive's field or
+        return o['amplitude'] * (np.linalg.norm(w_imu, axis=1) > o['threshold_rad_s'])  # supply load (no polynomial
+        # in the rate has a step at rest; the catalog's terms vanish at zero rate and grow with it)
+    if kind == 'temp_bump':      # a bias bump about one die temperature (a mode crossing, an activity dip): no
+        return o['amplitude'] * np.exp(-0.5 * ((T - o['T0_C']) / o['width_C']) ** 2)  # polynomial in T has it
     j = AX.index(o['axis'])
     if kind == 'rate_odd':       # accel bias linear in the rate about another axis (odd in w; no catalog accel
         return o['coefficient'] * w_imu[:, AX.index(o['input_axis'])]  # effect is odd in the rate)
@@ -561,6 +566,12 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
         moving = np.abs(w) > o.get('threshold_rad_s', 0.2)
         last = np.maximum.accumulate(np.where(moving, np.arange(len(w)), -1))
         d = np.where(last >= 0, np.sign(w[np.maximum(last, 0)]), 0.0)
+        return o['amplitude'] * d
+    if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
+        u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
+        loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
+        last = np.maximum.accumulate(np.where(loaded, np.arange(len(u)), -1))
+        d = np.where(last >= 0, np.sign(u[np.maximum(last, 0)]), 0.0)
         return o['amplitude'] * d
     raise ValueError('unknown out-of-catalog kind %r' % kind)
 
@@ -1012,9 +1023,13 @@ OOC_KINDS_UNSEEN3 = ['g_temp', 'w_times_f', 'sign_rate']
 # rate and an accel creep after each pose change. Its third kind, an accel bias in another axis' f² (IEEE 1293's
 # K_pp), became the catalog's cross_axis_nonlinearity at stop 55 and left the out-of-catalog kinds.
 OOC_KINDS_UNSEEN4 = ['abs_temp_rate', 'creep']
+# written at stop 56 and first run on the stop-55 binary (suite 'unseen5'): a bias while the table turns at any
+# rate, a bias bump about one die temperature, and an accel bias that remembers which way the last pose loaded
+# its axis
+OOC_KINDS_UNSEEN5 = ['motor_on', 'temp_bump', 'f_memory']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate')
-OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep')
+OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory')
 
 
 def ooc_params(ooc_kind, amp, rng, scenario):
@@ -1060,6 +1075,14 @@ def ooc_params(ooc_kind, amp, rng, scenario):
         return dict(coefficient=amp / (scenario['slew_C_per_min'] / 60.0))
     if ooc_kind == 'creep':  # amp: the transient just after a 1 g step
         return dict(coefficient=amp / 9.80665, tau_s=float(rng.uniform(5, 30)), fs_hz=float(scenario['sample_rate_hz']))
+    if ooc_kind == 'motor_on':
+        return dict(amplitude=amp, threshold_rad_s=math.radians(1.0))
+    if ooc_kind == 'temp_bump':
+        lo, hi = min(scenario['plateaus_C']), max(scenario['plateaus_C'])
+        return dict(amplitude=amp, T0_C=float(lo + rng.uniform(0.2, 0.8) * (hi - lo)),
+                    width_C=float(max(0.05 * (hi - lo), 1.0) * rng.uniform(1.0, 2.0)))
+    if ooc_kind == 'f_memory':
+        return dict(amplitude=amp, threshold_m_s2=5.0)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
 
 
