@@ -3616,19 +3616,15 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
             w.beyond_reason = "follows";
             w.follows.gain = gT.gain;
             w.follows.own_gain = gT.own_gain;
-            // The stand-in check asks one function, and the verdict names one: the hat the final model's residual
-            // correlates with most (blocks weighted at 1/vr, each about its weighted mean).
-            const Fit fr = fit_axis(ax[ua], cols_for(ax[ua], cur), -1);
-            const Eigen::VectorXd res = ax[ua].zr - fitted_means(ax[ua], fr), wt = ax[ua].vr.cwiseInverse();
-            auto centred = [&](const Eigen::VectorXd& v) { return Eigen::VectorXd(v.array() - v.dot(wt) / wt.sum()); };
-            const Eigen::VectorXd rc = centred(res);
+            // The stand-in check asks one function, and the verdict names one: the hat the held-out residual's
+            // signature ranks first (a partial correlation, as the verdict's "nearest" reads it).
             int best = temp_hats.front();
-            double best_r2 = -1;
-            for (const int k : temp_hats) {
-              const Eigen::VectorXd hc = centred(follows_F.col(k));
-              const double hh = hc.cwiseProduct(wt).dot(hc), rr = rc.cwiseProduct(wt).dot(rc);
-              const double r2 = hh > 0 && rr > 0 ? std::pow(hc.cwiseProduct(wt).dot(rc), 2) / (hh * rr) : 0.0;
-              if (r2 > best_r2) best_r2 = r2, best = k;
+            for (const auto& e : signature_of(a, 0.0, 0.0)) {
+              const auto it = std::find(follows_names.begin(), follows_names.end(), e.input);
+              if (e.input.rfind("T near", 0) == 0 && it != follows_names.end()) {
+                best = static_cast<int>(it - follows_names.begin());
+                break;
+              }
             }
             w.follows.best = best;
             w.follows.n_functions += 1;
