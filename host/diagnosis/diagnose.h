@@ -402,7 +402,8 @@ struct DiagnosisResult {
     PeriodicBias sinusoid;            // the best sinusoid, where the raise passed the other checks (else gain 0)
     TrendBias trend;                  // the drift and settling shapes, asked with the sinusoid (else gains 0)
     InputBias follows;                // the best function of the logged inputs beside the raise (else gain 0)
-    std::string follows_input;        // its name in the signature library ("|Tdot|", "f_x^2", ...)
+    std::string follows_input;        // its name in the signature library ("|Tdot|", "f_x^2", ...), or "a curve in
+                                      // T through N hats (nearest T near …)" where the hats passed together
     // A jump or line on an axis with a coarse output step: the final model's residual rms over the blocks, and
     // whether it is within twice the rounding staircase's sigma (then the axis is not named unexplained for it).
     double residual_rms = 0;
