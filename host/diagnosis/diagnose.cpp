@@ -542,6 +542,9 @@ constexpr double kMemoryTaus_s[4] = {3.0, 10.0, 30.0, 100.0};
 // than kTempHatMinSpacing_C (a block's own temperature spread on a ramp, and the look-elsewhere count, bound it).
 constexpr double kTempHats = 10.0;
 constexpr double kTempHatMinSpacing_C = 2.0;
+// Their names start with this; the `follows` check finds them by it among the library's functions.
+constexpr const char* kTempHatPrefix = "T near ";
+bool is_temp_hat(const std::string& name) { return name.rfind(kTempHatPrefix, 0) == 0; }
 
 // Block::f_mem / w_mem: each input low-passed at each time constant, stepped from block to block at their mid
 // times (a block's mean input taken as the input over the interval before it: exact where the input changes at
@@ -1306,7 +1309,7 @@ std::vector<SignatureFunction> signature_functions(const std::vector<Block>& blo
     const double dT = std::max((Thi - Tlo) / kTempHats, kTempHatMinSpacing_C);
     for (double c = Tlo + 0.5 * dT; c < Thi; c += dT) {
       char name[64];
-      std::snprintf(name, sizeof name, "T near %.0f degC (+-%.0f)", c, dT);
+      std::snprintf(name, sizeof name, "%s%.0f degC (+-%.0f)", kTempHatPrefix, c, dT);
       feats.push_back({name, [c, dT](const Block& b) { return std::isfinite(b.T) ? std::max(0.0, 1.0 - std::fabs(b.T - c) / dT) : 0.0; }});
     }
   }
@@ -3586,7 +3589,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
                       feats.end());
           follows_F.resize(B, static_cast<Eigen::Index>(feats.size()));
           for (std::size_t k = 0; k < feats.size(); ++k) {
-            if (feats[k].first.rfind("T near", 0) == 0) temp_hats.push_back(static_cast<int>(k));
+            if (is_temp_hat(feats[k].first)) temp_hats.push_back(static_cast<int>(k));
             follows_names.push_back(feats[k].first);
             for (int b = 0; b < B; ++b) {
               const double v = feats[k].second(blocks[static_cast<std::size_t>(b)]);
@@ -3620,11 +3623,10 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
             // signature ranks first (a partial correlation, as the verdict's "nearest" reads it).
             int best = temp_hats.front();
             for (const auto& e : signature_of(a, 0.0, 0.0)) {
+              if (!is_temp_hat(e.input)) continue;
               const auto it = std::find(follows_names.begin(), follows_names.end(), e.input);
-              if (e.input.rfind("T near", 0) == 0 && it != follows_names.end()) {
-                best = static_cast<int>(it - follows_names.begin());
-                break;
-              }
+              if (it != follows_names.end()) best = static_cast<int>(it - follows_names.begin());
+              break;
             }
             w.follows.best = best;
             w.follows.n_functions += 1;

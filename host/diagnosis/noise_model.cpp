@@ -717,7 +717,6 @@ InputBias input_group_bias(const StochasticModel& m, const std::vector<double>& 
   const ShapeProfile p1 = profile_shapes(m, t_s, dur_s, with, static_cast<int>(with.cols()), rw_prior_var, duration_s, raise, seg_of);
   out.gain = std::max(p0.best - p1.best, 0.0);
   out.own_gain = std::max(p0.own - p1.own, 0.0);
-  out.best = live.front();
   return out;
 }
 

@@ -208,8 +208,8 @@ InputBias input_bias(const StochasticModel& m, const std::vector<double>& t_s, c
 // bump of another width only in part, and at a high SNR the misfit it leaves still wants the raise: the curve the
 // hats draw together takes the bump whole, and the raise with it (`unseen5` ooc-temp_bump). gain: the likelihood
 // ratio of the raise beside all of them against the raise alone, each profiled; own_gain: theirs under m's own
-// level; n_functions: the non-zero columns (the ratio's degrees of freedom). O(42 · n · (P + G)²), G =
-// group.cols().
+// level; n_functions: the non-zero columns (the ratio's degrees of freedom); best stays −1 (no one column is the
+// answer: the caller names one). O(42 · n · (P + G)²), G = group.cols().
 InputBias input_group_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                            const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
                            const WholeLogWander& raise, const Eigen::Ref<const Eigen::MatrixXd>& group,
