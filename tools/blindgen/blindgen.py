@@ -532,6 +532,18 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     if kind == 'temp_bump':      # a bias bump about one die temperature (a mode crossing, an activity dip): no
         return o['amplitude'] * np.exp(-0.5 * ((T - o['T0_C']) / o['width_C']) ** 2)  # polynomial in T has it
     j = AX.index(o['axis'])
+    if kind == 'scale_bump':     # a scale factor bump about one die temperature (a resonance of the drive or sense
+        u = f_imu if o['sensor'] == 'accel' else w_imu  # loop crossing at T0): the scale analogue of temp_bump; the
+        return o['per_unit'] * np.exp(-0.5 * ((T - o['T0_C']) / o['width_C']) ** 2) * u[:, j]  # catalog's is linear in T
+    if kind == 'f_times_w':      # accel bias ~ w_j f_j: the proof mass loaded along its axis and turned about it
+        return o['coefficient'] * w_imu[:, j] * f_imu[:, j]  # (no catalog accel term is odd in w; latency's w x f has
+        # no j-th component from w_j)
+    if kind == 'spin_settle':    # gyro bias that jumps when a rotation stops and settles with tau (the drive's ring-
+        moving = np.linalg.norm(w_imu, axis=1) > o['threshold_rad_s']  # down, motor heat): zero while turning and
+        idx = np.arange(len(t))  # before the first rotation
+        last = np.maximum.accumulate(np.where(moving, idx, -1))
+        dt = t - t[np.maximum(last, 0)]
+        return np.where((last >= 0) & ~moving, o['amplitude'] * np.exp(-dt / o['tau_s']), 0.0)
     if kind == 'rate_odd':       # accel bias linear in the rate about another axis (odd in w; no catalog accel
         return o['coefficient'] * w_imu[:, AX.index(o['input_axis'])]  # effect is odd in the rate)
     if kind == 'creep':          # anelastic creep of the proof mass' suspension: after a change of the input the
@@ -1027,9 +1039,12 @@ OOC_KINDS_UNSEEN4 = ['abs_temp_rate', 'creep']
 # rate, a bias bump about one die temperature, and an accel bias that remembers which way the last pose loaded
 # its axis
 OOC_KINDS_UNSEEN5 = ['motor_on', 'temp_bump', 'f_memory']
+# written at stop 57 and first run on the stop-56 binary (suite 'unseen6'): a scale bump about one die temperature,
+# an accel bias in its own axis' rate times its own specific force, a gyro bias that settles after each rotation
+OOC_KINDS_UNSEEN6 = ['scale_bump', 'f_times_w', 'spin_settle']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
-OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate')
-OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory')
+OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle')
+OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w')
 
 
 def ooc_params(ooc_kind, amp, rng, scenario):
@@ -1083,6 +1098,15 @@ def ooc_params(ooc_kind, amp, rng, scenario):
                     width_C=float(max(0.05 * (hi - lo), 1.0) * rng.uniform(1.0, 2.0)))
     if ooc_kind == 'f_memory':
         return dict(amplitude=amp, threshold_m_s2=5.0)
+    if ooc_kind == 'scale_bump':  # amp at the largest input (1 g, or the top rate), at the bump's peak
+        lo, hi = min(scenario['plateaus_C']), max(scenario['plateaus_C'])
+        return dict(per_unit=None, amplitude=amp, _top_rate=math.radians(max(scenario['rates_dps'])),
+                    T0_C=float(lo + rng.uniform(0.2, 0.8) * (hi - lo)),
+                    width_C=float(max(0.05 * (hi - lo), 1.0) * rng.uniform(1.0, 2.0)))
+    if ooc_kind == 'f_times_w':
+        return dict(coefficient=amp / (9.80665 * math.radians(max(scenario['rates_dps']))))
+    if ooc_kind == 'spin_settle':
+        return dict(amplitude=amp, tau_s=float(rng.uniform(3, 15)), threshold_rad_s=math.radians(1.0))
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
 
 
@@ -1093,6 +1117,9 @@ def ooc_fill_axis(o, rng):
     if o['kind'] == 'scale_age':  # the scale change over the run gives amp at the largest input (1 g, or the top rate)
         top = o.pop('_top_rate')
         o['per_unit'] = 2.0 * o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
+    if o['kind'] == 'scale_bump':
+        top = o.pop('_top_rate')
+        o['per_unit'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
 
 
 def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, g2_squares=False, ooc_kind=None,
