@@ -303,6 +303,11 @@ struct Block {
   // as a suspension that creeps after each pose change does). Filled over the blocks in time order
   // (fill_input_memory).
   double f_mem[3][4] = {}, w_mem[3][4] = {};
+  // Block mean of e^{−s/τ} for each τ of kSettleTaus_s, s the time since the last motion ended: [0] a rotation,
+  // [1] a rotation or a pose change between two static blocks (where the log's poses change instantaneously, the
+  // turn between them is not in it). 0 on moving blocks and before the first motion (signatures: an output that
+  // settles after every motion, as a drive ringing down or a motor's heat does). fill_motion_settling.
+  double settle[2][3] = {};
   std::array<double, kHysteresisGrid> d_grid{};  // block mean of d at each threshold of kHysteresisGrid_C
   double ww[3] = {}, ff[3][3] = {};          // block means of ω_k² and f_k f_l (signatures)
   double wq[3][3] = {};                      // block means of ω_k ω_l of the gyro's reference as evaluated (mount)
@@ -563,6 +568,41 @@ void fill_input_memory(std::vector<Block>& blocks) {
       }
     }
     t_prev = x.t;
+  }
+}
+
+constexpr double kSettleTaus_s[3] = {3.0, 10.0, 30.0};
+// A block turning faster than this is motion (0.57 °/s, far above the Earth's rate); a step of the specific force
+// between two static blocks larger than this is a pose change (a tilt of 0.3°, far above a dwell's drift).
+constexpr double kMotionRate_rad_s = 0.01;
+constexpr double kPoseStep_m_s2 = 0.05;
+
+// Block::settle. A rotation ends at the last moving block's end; a pose change halfway across the gap between two
+// static blocks at different poses. Exact for a block wholly after the end: the mean of e^{−s/τ} over [s0, s1] is
+// τ (e^{−s0/τ} − e^{−s1/τ}) / (s1 − s0). O(blocks).
+void fill_motion_settling(std::vector<Block>& blocks) {
+  double t_end[2] = {kNaN, kNaN};
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    Block& x = blocks[b];
+    const bool moving = x.absw > kMotionRate_rad_s;
+    if (b > 0 && !moving) {
+      const Block& p = blocks[b - 1];
+      double df = 0;
+      for (int k = 0; k < 3; ++k) df = std::max(df, std::fabs(x.f[k] - p.f[k]));
+      if (p.absw > kMotionRate_rad_s)
+        t_end[0] = t_end[1] = p.t1;
+      else if (df > kPoseStep_m_s2)
+        t_end[1] = 0.5 * (p.t1 + x.t0);
+    }
+    for (int m = 0; m < 2; ++m)
+      for (int j = 0; j < 3; ++j) {
+        double v = 0;
+        if (!moving && std::isfinite(t_end[m])) {
+          const double tau = kSettleTaus_s[j], s0 = std::max(x.t0 - t_end[m], 0.0), s1 = std::max(x.t1 - t_end[m], s0);
+          v = s1 - s0 > 1e-9 ? tau * (std::exp(-s0 / tau) - std::exp(-s1 / tau)) / (s1 - s0) : std::exp(-s0 / tau);
+        }
+        x.settle[m][j] = v;
+      }
   }
 }
 
@@ -1167,6 +1207,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
     }
   }
   fill_input_memory(out.blocks);
+  fill_motion_settling(out.blocks);
   return out;
 }
 
@@ -1326,6 +1367,15 @@ std::vector<SignatureFunction> signature_functions(const std::vector<Block>& blo
       feats.push_back({name, [k, j](const Block& b) { return b.f_mem[k][j]; }});
       std::snprintf(name, sizeof name, "w_%c low-passed at %.0f s", ax[k], kMemoryTaus_s[j]);
       feats.push_back({name, [k, j](const Block& b) { return b.w_mem[k][j]; }});
+    }
+  // A settling after every motion (Block::settle): one sign whatever the pose or the turn, so neither the inputs
+  // nor their lagged memories carry it, and on dwells of one length the bias takes all of it but for the moving
+  // blocks and the dwells' differing lengths.
+  for (int m = 0; m < 2; ++m)
+    for (int j = 0; j < 3; ++j) {
+      char name[48];
+      std::snprintf(name, sizeof name, "settling %.0f s after each %s", kSettleTaus_s[j], m == 0 ? "turn" : "pose change");
+      feats.push_back({name, [m, j](const Block& b) { return b.settle[m][j]; }});
     }
   feats.push_back({"time", [](const Block& b) { return b.t; }});
   for (int k = 0; k < 3; ++k) {
@@ -3524,6 +3574,10 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   Eigen::MatrixXd follows_F;                // the functions the `follows` check asks, one column each (input_bias)
   std::vector<std::string> follows_names;  // and their names
   std::vector<int> temp_hats;               // the columns that are hats of the die temperature
+  // After the library's columns (n_single of them, all the single `follows` check asks): each axis's own input
+  // (f_j for accel axis j, ω_j for gyro) times each hat, the columns of a scale factor's curve in T.
+  int n_single = 0;
+  std::array<std::vector<int>, kNumAxes> scale_hats;
   // Within the held-out threshold, but what is left is neither a catalog effect nor stationary wander
   // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a random
   // walk, and the floor it raised hides the residual from the held-out χ².
@@ -3587,17 +3641,32 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           std::vector<SignatureFunction> feats = signature_functions(blocks, pv_sig);
           feats.erase(std::remove_if(feats.begin(), feats.end(), [](const SignatureFunction& f) { return f.first == "time"; }),
                       feats.end());
-          follows_F.resize(B, static_cast<Eigen::Index>(feats.size()));
-          for (std::size_t k = 0; k < feats.size(); ++k) {
-            if (is_temp_hat(feats[k].first)) temp_hats.push_back(static_cast<int>(k));
-            follows_names.push_back(feats[k].first);
+          n_single = static_cast<int>(feats.size());
+          int n_hats = 0;
+          for (const auto& f : feats) n_hats += is_temp_hat(f.first) ? 1 : 0;
+          follows_F.resize(B, static_cast<Eigen::Index>(n_single + kNumAxes * n_hats));
+          for (int k = 0; k < n_single; ++k) {
+            if (is_temp_hat(feats[static_cast<std::size_t>(k)].first)) temp_hats.push_back(k);
+            follows_names.push_back(feats[static_cast<std::size_t>(k)].first);
             for (int b = 0; b < B; ++b) {
-              const double v = feats[k].second(blocks[static_cast<std::size_t>(b)]);
-              follows_F(b, static_cast<Eigen::Index>(k)) = std::isfinite(v) ? v : 0.0;
+              const double v = feats[static_cast<std::size_t>(k)].second(blocks[static_cast<std::size_t>(b)]);
+              follows_F(b, k) = std::isfinite(v) ? v : 0.0;
             }
           }
+          for (int ax_i = 0; ax_i < kNumAxes; ++ax_i)
+            for (int h : temp_hats) {
+              const int k = static_cast<int>(follows_names.size());
+              const int j = ax_i % 3;
+              follows_names.push_back(std::string(ax_i < 3 ? "f_" : "w_") + "xyz"[j] + " * " + follows_names[static_cast<std::size_t>(h)]);
+              for (int b = 0; b < B; ++b) {
+                const Block& x = blocks[static_cast<std::size_t>(b)];
+                follows_F(b, k) = (ax_i < 3 ? x.f[j] : x.w[j]) * follows_F(b, h);
+              }
+              scale_hats[static_cast<std::size_t>(ax_i)].push_back(k);
+            }
         }
-        w.follows = input_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, follows_F, &blk_seg);
+        w.follows = input_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick,
+                               follows_F.leftCols(n_single), &blk_seg);
         if (w.follows.best >= 0) w.follows_input = follows_names[static_cast<std::size_t>(w.follows.best)];
         const double bar = o.wander_follows_chi2 + 2.0 * std::log(std::max(1, w.follows.n_functions));
         if (std::getenv("IMUFORGE_DIAG_TRACE"))
@@ -3605,34 +3674,52 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
                        w.follows_input.c_str(), w.follows.gain, w.follows.own_gain, w.follows.n_functions, bar);
         if (w.follows.gain > bar) w.beyond_reason = "follows";
         // The die temperature's hats together: a curve of T that no one hat draws (input_group_bias), at the
-        // level of the bar above (its χ²(1) tail) on as many degrees of freedom as hats.
-        if (w.beyond_reason.empty() && !temp_hats.empty()) {
-          Eigen::MatrixXd G(B, static_cast<Eigen::Index>(temp_hats.size()));
-          for (std::size_t k = 0; k < temp_hats.size(); ++k) G.col(static_cast<Eigen::Index>(k)) = follows_F.col(temp_hats[k]);
-          const InputBias gT = input_group_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, G, &blk_seg);
-          const double p_bar = chi2_sf(bar, 1.0);
-          const double p_group = gT.n_functions > 0 ? chi2_sf(gT.gain, gT.n_functions) : 1.0;
+        // level of the bar above (its χ²(1) tail, halved: two such families are asked) on as many degrees of
+        // freedom as hats. The family's live hats when it passes (gain and own_gain to w.follows), else 0.
+        const double p_bar = 0.5 * chi2_sf(bar, 1.0);
+        auto family_passes = [&](const std::vector<int>& cols, const char* what) {
+          Eigen::MatrixXd G(B, static_cast<Eigen::Index>(cols.size()));
+          for (std::size_t k = 0; k < cols.size(); ++k) G.col(static_cast<Eigen::Index>(k)) = follows_F.col(cols[k]);
+          const InputBias g = input_group_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, G, &blk_seg);
+          const double p_group = g.n_functions > 0 ? chi2_sf(g.gain, g.n_functions) : 1.0;
           if (std::getenv("IMUFORGE_DIAG_TRACE"))
-            std::fprintf(stderr, "follows %s: a curve in T through %d hats LR %.1f (own %.1f) p %.2g, bar p %.2g\n", axis_name(a),
-                         gT.n_functions, gT.gain, gT.own_gain, p_group, p_bar);
-          if (p_group < p_bar) {
-            w.beyond_reason = "follows";
-            w.follows.gain = gT.gain;
-            w.follows.own_gain = gT.own_gain;
-            // The stand-in check asks one function, and the verdict names one: the hat the held-out residual's
-            // signature ranks first (a partial correlation, as the verdict's "nearest" reads it).
-            int best = temp_hats.front();
-            for (const auto& e : signature_of(a, 0.0, 0.0)) {
-              if (!is_temp_hat(e.input)) continue;
-              const auto it = std::find(follows_names.begin(), follows_names.end(), e.input);
-              if (it != follows_names.end()) best = static_cast<int>(it - follows_names.begin());
-              break;
-            }
-            w.follows.best = best;
-            w.follows.n_functions += 1;
-            w.follows_input = "a curve in T through " + std::to_string(gT.n_functions) + " hats (nearest " +
-                              follows_names[static_cast<std::size_t>(best)] + ")";
+            std::fprintf(stderr, "follows %s: %s through %d hats LR %.1f (own %.1f) p %.2g, bar p %.2g\n", axis_name(a), what,
+                         g.n_functions, g.gain, g.own_gain, p_group, p_bar);
+          if (!(p_group < p_bar)) return 0;
+          w.beyond_reason = "follows";
+          w.follows.gain = g.gain;
+          w.follows.own_gain = g.own_gain;
+          return g.n_functions;
+        };
+        int n_hats = 0;
+        if (w.beyond_reason.empty() && !temp_hats.empty() && (n_hats = family_passes(temp_hats, "a curve in T")) > 0) {
+          // The stand-in check asks one function, and the verdict names one: the hat the held-out residual's
+          // signature ranks first (a partial correlation, as the verdict's "nearest" reads it).
+          int best = temp_hats.front();
+          for (const auto& e : signature_of(a, 0.0, 0.0)) {
+            if (!is_temp_hat(e.input)) continue;
+            const auto it = std::find(follows_names.begin(), follows_names.end(), e.input);
+            if (it != follows_names.end()) best = static_cast<int>(it - follows_names.begin());
+            break;
           }
+          w.follows.best = best;
+          w.follows.n_functions += 1;
+          w.follows_input = "a curve in T through " + std::to_string(n_hats) + " hats (nearest " +
+                            follows_names[static_cast<std::size_t>(best)] + ")";
+        }
+        // The same of the axis's scale factor: its own input times each hat, together (a scale that departs from
+        // the model's line in T over a few degrees, a drive loop's resonance crossing: `unseen6` ooc-scale_bump).
+        // Named for the product the single check ranks first among them (the signature has no products).
+        const std::vector<int>& sh = scale_hats[ua];
+        if (w.beyond_reason.empty() && !sh.empty() && (n_hats = family_passes(sh, "a scale curve in T")) > 0) {
+          Eigen::MatrixXd G(B, static_cast<Eigen::Index>(sh.size()));
+          for (std::size_t k = 0; k < sh.size(); ++k) G.col(static_cast<Eigen::Index>(k)) = follows_F.col(sh[k]);
+          const InputBias one = input_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, G, &blk_seg);
+          const int best = sh[static_cast<std::size_t>(std::max(one.best, 0))];
+          w.follows.best = best;
+          w.follows.n_functions += 2;
+          w.follows_input = "a scale curve in T through " + std::to_string(n_hats) + " hats (nearest " +
+                            follows_names[static_cast<std::size_t>(best)] + ")";
         }
       }
     }

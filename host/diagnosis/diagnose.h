@@ -403,7 +403,9 @@ struct DiagnosisResult {
     TrendBias trend;                  // the drift and settling shapes, asked with the sinusoid (else gains 0)
     InputBias follows;                // the best function of the logged inputs beside the raise (else gain 0)
     std::string follows_input;        // its name in the signature library ("|Tdot|", "f_x^2", ...), or "a curve in
-                                      // T through N hats (nearest T near …)" where the hats passed together
+                                      // T through N hats (nearest T near …)" where the hats passed together, or
+                                      // "a scale curve in T through N hats (nearest w_x * T near …)" where the
+                                      // axis's input times each hat did
     // A jump or line on an axis with a coarse output step: the final model's residual rms over the blocks, and
     // whether it is within twice the rounding staircase's sigma (then the axis is not named unexplained for it).
     double residual_rms = 0;
