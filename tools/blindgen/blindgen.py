@@ -536,8 +536,8 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
         u = f_imu if o['sensor'] == 'accel' else w_imu  # loop crossing at T0): the scale analogue of temp_bump; the
         return o['per_unit'] * np.exp(-0.5 * ((T - o['T0_C']) / o['width_C']) ** 2) * u[:, j]  # catalog's is linear in T
     if kind == 'f_times_w':      # accel bias ~ w_j f_j: the proof mass loaded along its axis and turned about it
-        return o['coefficient'] * w_imu[:, j] * f_imu[:, j]  # (no catalog accel term is odd in w; latency's w x f has
-        # no j-th component from w_j)
+        return o['coefficient'] * w_imu[:, j] * f_imu[:, j]  # (the catalog's only accel term odd in w is latency's
+        # w x f, whose j-th component has no w_j)
     if kind == 'spin_settle':    # gyro bias that jumps when a rotation stops and settles with tau (the drive's ring-
         moving = np.linalg.norm(w_imu, axis=1) > o['threshold_rad_s']  # down, motor heat): zero while turning and
         idx = np.arange(len(t))  # before the first rotation
