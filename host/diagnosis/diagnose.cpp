@@ -573,7 +573,8 @@ void fill_input_memory(std::vector<Block>& blocks) {
 
 constexpr double kSettleTaus_s[3] = {3.0, 10.0, 30.0};
 // A block turning faster than this is motion (0.57 °/s, far above the Earth's rate); a step of the specific force
-// between two static blocks larger than this is a pose change (a tilt of 0.3°, far above a dwell's drift).
+// larger than this is a pose change (a tilt of 0.3°, far above a dwell's drift). A static block has neither
+// within it; between two static blocks a step is a pose change (fill_motion_settling).
 constexpr double kMotionRate_rad_s = 0.01;
 constexpr double kPoseStep_m_s2 = 0.05;
 
@@ -958,7 +959,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
     double frange = 0;
     for (int k = 0; k < 3; ++k) frange = std::max(frange, acc.fmax[k] - acc.fmin[k]);
     const double Trange = acc.nT > 0 ? acc.Tmax - acc.Tmin : 0.0;
-    b.is_static = acc.maxw < 0.01 && frange < 0.05 && Trange < 2.0 * opt.block_temp_tol_C && b.n >= 8;
+    b.is_static = acc.maxw < kMotionRate_rad_s && frange < kPoseStep_m_s2 && Trange < 2.0 * opt.block_temp_tol_C && b.n >= 8;
     // Static blocks of one segment are joined into one Allan series (long τ needs long records).
     // ... but only while the temperature stays within the block tolerance: a thermal ramp would otherwise
     // turn bias_temp / temp_rate drift into apparent low-frequency noise and hide them.
@@ -3642,11 +3643,10 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           feats.erase(std::remove_if(feats.begin(), feats.end(), [](const SignatureFunction& f) { return f.first == "time"; }),
                       feats.end());
           n_single = static_cast<int>(feats.size());
-          int n_hats = 0;
-          for (const auto& f : feats) n_hats += is_temp_hat(f.first) ? 1 : 0;
-          follows_F.resize(B, static_cast<Eigen::Index>(n_single + kNumAxes * n_hats));
-          for (int k = 0; k < n_single; ++k) {
+          for (int k = 0; k < n_single; ++k)
             if (is_temp_hat(feats[static_cast<std::size_t>(k)].first)) temp_hats.push_back(k);
+          follows_F.resize(B, static_cast<Eigen::Index>(n_single + kNumAxes * static_cast<int>(temp_hats.size())));
+          for (int k = 0; k < n_single; ++k) {
             follows_names.push_back(feats[static_cast<std::size_t>(k)].first);
             for (int b = 0; b < B; ++b) {
               const double v = feats[static_cast<std::size_t>(k)].second(blocks[static_cast<std::size_t>(b)]);
@@ -3678,9 +3678,8 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
         // freedom as hats. The family's live hats when it passes (gain and own_gain to w.follows), else 0.
         const double p_bar = 0.5 * chi2_sf(bar, 1.0);
         auto family_passes = [&](const std::vector<int>& cols, const char* what) {
-          Eigen::MatrixXd G(B, static_cast<Eigen::Index>(cols.size()));
-          for (std::size_t k = 0; k < cols.size(); ++k) G.col(static_cast<Eigen::Index>(k)) = follows_F.col(cols[k]);
-          const InputBias g = input_group_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, G, &blk_seg);
+          const InputBias g = input_group_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick,
+                                               follows_F(Eigen::all, cols), &blk_seg);
           const double p_group = g.n_functions > 0 ? chi2_sf(g.gain, g.n_functions) : 1.0;
           if (std::getenv("IMUFORGE_DIAG_TRACE"))
             std::fprintf(stderr, "follows %s: %s through %d hats LR %.1f (own %.1f) p %.2g, bar p %.2g\n", axis_name(a), what,
@@ -3691,8 +3690,8 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           w.follows.own_gain = g.own_gain;
           return g.n_functions;
         };
-        int n_hats = 0;
-        if (w.beyond_reason.empty() && !temp_hats.empty() && (n_hats = family_passes(temp_hats, "a curve in T")) > 0) {
+        int n_live = 0;
+        if (w.beyond_reason.empty() && !temp_hats.empty() && (n_live = family_passes(temp_hats, "a curve in T")) > 0) {
           // The stand-in check asks one function, and the verdict names one: the hat the held-out residual's
           // signature ranks first (a partial correlation, as the verdict's "nearest" reads it).
           int best = temp_hats.front();
@@ -3704,21 +3703,20 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           }
           w.follows.best = best;
           w.follows.n_functions += 1;
-          w.follows_input = "a curve in T through " + std::to_string(n_hats) + " hats (nearest " +
+          w.follows_input = "a curve in T through " + std::to_string(n_live) + " hats (nearest " +
                             follows_names[static_cast<std::size_t>(best)] + ")";
         }
         // The same of the axis's scale factor: its own input times each hat, together (a scale that departs from
         // the model's line in T over a few degrees, a drive loop's resonance crossing: `unseen6` ooc-scale_bump).
         // Named for the product the single check ranks first among them (the signature has no products).
         const std::vector<int>& sh = scale_hats[ua];
-        if (w.beyond_reason.empty() && !sh.empty() && (n_hats = family_passes(sh, "a scale curve in T")) > 0) {
-          Eigen::MatrixXd G(B, static_cast<Eigen::Index>(sh.size()));
-          for (std::size_t k = 0; k < sh.size(); ++k) G.col(static_cast<Eigen::Index>(k)) = follows_F.col(sh[k]);
-          const InputBias one = input_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, G, &blk_seg);
+        if (w.beyond_reason.empty() && !sh.empty() && (n_live = family_passes(sh, "a scale curve in T")) > 0) {
+          const InputBias one = input_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick,
+                                           follows_F(Eigen::all, sh), &blk_seg);
           const int best = sh[static_cast<std::size_t>(std::max(one.best, 0))];
           w.follows.best = best;
           w.follows.n_functions += 2;
-          w.follows_input = "a scale curve in T through " + std::to_string(n_hats) + " hats (nearest " +
+          w.follows_input = "a scale curve in T through " + std::to_string(n_live) + " hats (nearest " +
                             follows_names[static_cast<std::size_t>(best)] + ")";
         }
       }
