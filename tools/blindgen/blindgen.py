@@ -579,6 +579,21 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
         last = np.maximum.accumulate(np.where(moving, np.arange(len(w)), -1))
         d = np.where(last >= 0, np.sign(w[np.maximum(last, 0)]), 0.0)
         return o['amplitude'] * d
+    if kind == 'f_triple':       # accel bias ~ f_x f_y f_z (a cubic cross term of the pendulum's suspension: zero on
+        return o['coefficient'] * f_imu[:, 0] * f_imu[:, 1] * f_imu[:, 2]  # every face and every pose with one axis
+        # level, so only the generic tilts see it; the catalog's accel squares and k2/k3 are not odd in all three)
+    if kind == 'abs_g':          # gyro bias ~ |f_j|: a g-sensitivity rectified by an asymmetric suspension (even in
+        return o['coefficient'] * np.abs(f_imu[:, j])  # f like g2's f_j^2, which it equals on the faces and departs
+        # from on the tilts: |cos 45| = 0.71 against cos^2 45 = 0.5)
+    if kind == 'motor_heat':     # a bias that follows the table motor's heat: a first-order lag (tau) of 'the table
+        moving = (np.linalg.norm(w_imu, axis=1) > o['threshold_rad_s']).astype(float)  # turns', rising through
+        a = 1.0 - math.exp(-1.0 / (o['fs_hz'] * o['tau_s']))  # each block of rotations and decaying after; the
+        lp = np.empty_like(moving)  # die's sensor does not see this heat, so no function of T carries it
+        acc = 0.0
+        for i in range(len(moving)):
+            acc += a * (moving[i] - acc)
+            lp[i] = acc
+        return o['amplitude'] * lp
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -1042,9 +1057,12 @@ OOC_KINDS_UNSEEN5 = ['motor_on', 'temp_bump', 'f_memory']
 # written at stop 57 and first run on the stop-56 binary (suite 'unseen6'): a scale bump about one die temperature,
 # an accel bias in its own axis' rate times its own specific force, a gyro bias that settles after each rotation
 OOC_KINDS_UNSEEN6 = ['scale_bump', 'f_times_w', 'spin_settle']
+# written at stop 58 and first run on the stop-57 binary (suite 'unseen7'): an accel bias in f_x f_y f_z, a gyro
+# bias in |f_j|, a bias that lags the table motor's heat
+OOC_KINDS_UNSEEN7 = ['f_triple', 'abs_g', 'motor_heat']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
-OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle')
-OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w')
+OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g')
+OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple')
 
 
 def ooc_params(ooc_kind, amp, rng, scenario):
@@ -1107,6 +1125,13 @@ def ooc_params(ooc_kind, amp, rng, scenario):
         return dict(coefficient=amp / (9.80665 * math.radians(max(scenario['rates_dps']))))
     if ooc_kind == 'spin_settle':
         return dict(amplitude=amp, tau_s=float(rng.uniform(3, 15)), threshold_rad_s=math.radians(1.0))
+    if ooc_kind == 'f_triple':  # amp on the body diagonal (each |f_k| = g / sqrt 3)
+        return dict(coefficient=amp / (9.80665 / math.sqrt(3.0)) ** 3)
+    if ooc_kind == 'abs_g':
+        return dict(coefficient=amp / 9.80665)
+    if ooc_kind == 'motor_heat':  # amp once the lag has settled while turning
+        return dict(amplitude=amp, tau_s=float(rng.uniform(40, 200)), threshold_rad_s=math.radians(1.0),
+                    fs_hz=float(scenario['sample_rate_hz']))
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
 
 
