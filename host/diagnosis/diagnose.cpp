@@ -1260,6 +1260,11 @@ using estimator::HeldOut;
 // Fits columns `sel` (indices into cols, in priority order) on all folds except `skip` (−1 = none).
 // Columns whose information is (nearly) a combination of earlier ones are dropped, never solved.
 Fit fit_axis(const AxisData& ad, const std::vector<int>& sel, int skip) { return estimator::fit_without(ad.ne, sel, skip); }
+// The fit's misfit per degree of freedom, at least 1: the factor that puts an axis's in-sample χ² differences in
+// units of its own unmodelled scatter (tie-breaks and in-sample swap tests).
+double augmented_misfit(const AxisData& ad, const Fit& f) {
+  return std::max(1.0, f.rss / std::max(1.0, static_cast<double>(ad.ne.total.n_obs) - static_cast<double>(f.kept.size())));
+}
 
 // The block means fit f predicts on axis ad, before whitening (Xr θ over the kept columns). O(B·P).
 Eigen::VectorXd fitted_means(const AxisData& ad, const Fit& f) {
@@ -2760,8 +2765,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       sel.erase(std::remove_if(sel.begin() + static_cast<std::ptrdiff_t>(sel0.size()), sel.end(),
                                [&](int c) { return std::find(fa.kept.begin(), fa.kept.end(), c) == fa.kept.end(); }),
                 sel.end());
-      const double s2 = std::max(
-          1.0, fa.rss / std::max(1.0, static_cast<double>(ad.ne.total.n_obs) - static_cast<double>(fa.kept.size())));
+      const double s2 = augmented_misfit(ad, fa);
       for (;;) {
         std::size_t drop = 0;
         Fit fd_best;
@@ -3074,11 +3078,11 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
         for (int i = 0; i < static_cast<int>(f.kept.size()); ++i) {
           const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f.kept[static_cast<std::size_t>(i)])]);
           if (pi.sensor != Sensor::kAccel || pi.effect != Effect::kCrossAxisNonlinearity || pi.j != a) continue;
-          if (pi.component.size() == 4 && pi.component[2] == pi.component[3]) (i1 < 0 ? i1 : i2) = i;
+          if (pi.k >= 0 && pi.k == pi.l) (i1 < 0 ? i1 : i2) = i;
         }
         const ParamId k2 = model::find_param(std::string("accel.scale_nonlinearity.") + "xyz"[a] + ".k2");
         if (i1 < 0 || i2 < 0 || k2 < 0) continue;
-        const double s2 = std::max(1.0, f.rss / std::max(1.0, static_cast<double>(ad.ne.total.n_obs) - static_cast<double>(f.kept.size())));
+        const double s2 = augmented_misfit(ad, f);
         const double d = f.theta[i1] - f.theta[i2], m = 0.5 * (f.theta[i1] + f.theta[i2]);
         const double vd = s2 * (f.cov(i1, i1) + f.cov(i2, i2) - 2.0 * f.cov(i1, i2));
         const double vm = s2 * 0.25 * (f.cov(i1, i1) + f.cov(i2, i2) + 2.0 * f.cov(i1, i2));
@@ -3113,7 +3117,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
         for (int a = 0; a < 3; ++a) {
           const AxisData& ad = ax[static_cast<std::size_t>(a)];
           const Fit fn = fit_axis(ad, cols_for(ad, next), -1);
-          const double s2 = std::max(1.0, fn.rss / std::max(1.0, static_cast<double>(ad.ne.total.n_obs) - static_cast<double>(fn.kept.size())));
+          const double s2 = augmented_misfit(ad, fn);
           q_next += fn.rss / s2;
           q_wo += fit_axis(ad, cols_for(ad, without_cx), -1).rss / s2;
           q_nok2 += fit_axis(ad, cols_for(ad, without_k2), -1).rss / s2;
@@ -3124,9 +3128,10 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
         cur = cx_stays ? next : without_cx;
         cur_effects.insert(k2e);
         if (!cx_stays) cur_effects.erase(cx);
-        R.selected.erase(std::remove_if(R.selected.begin(), R.selected.end(),
-                                        [&](const Step& st) { return !cx_stays && st.sensor == "accel" && st.effect == "cross_axis_nonlinearity"; }),
-                         R.selected.end());
+        if (!cx_stays)
+          R.selected.erase(std::remove_if(R.selected.begin(), R.selected.end(),
+                                          [](const Step& st) { return st.sensor == "accel" && st.effect == "cross_axis_nonlinearity"; }),
+                           R.selected.end());
         R.selected.push_back(make_step("accel", "scale_nonlinearity", chi2_sf(lr_k2, n_k2), lr_k2, cur));
         R.warnings.push_back(std::string("accel.cross_axis_nonlinearity's two squares are equal on ") + detail +
                              ": on static poses (|f| = g) that is accel.scale_nonlinearity's k2 on one component for two, "
