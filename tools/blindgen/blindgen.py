@@ -594,6 +594,19 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
             acc += a * (moving[i] - acc)
             lp[i] = acc
         return o['amplitude'] * lp
+    if kind == 'rate_bump':      # a bias at one speed of the table, whatever the axis: a structural resonance the
+        wn = np.linalg.norm(w_imu, axis=1)  # drive excites there (zero at rest, not monotone in the rate: no
+        return o['amplitude'] * np.exp(-0.5 * ((wn - o['w0_rad_s']) / (o['width_frac'] * o['w0_rad_s'])) ** 2)  # polynomial)
+    if kind == 'cable_wrap':     # a bias following the turns the table has wound up about the vertical since the
+        fn = np.linalg.norm(f_imu, axis=1)  # start (a cable without a slip ring twists and strains the mount): the
+        up = np.where(fn[:, None] > 0, f_imu / np.maximum(fn, 1e-9)[:, None], 0.0)  # rate about the specific force,
+        dt = np.diff(t, prepend=t[0])  # integrated; scaled to amp at its largest excursion. A history, no function
+        theta = np.cumsum(np.sum(w_imu * up, axis=1) * dt)  # of the present inputs has it
+        m = np.max(np.abs(theta))
+        return o['amplitude'] * theta / m if m > 0 else np.zeros_like(t)
+    if kind == 'knee':           # accel output compressing beyond a knee f0 (the front end leaving its linear range):
+        u = f_imu[:, j]          # odd, zero below f0, quadratic past it; the catalog's k3 u^3 is a cubic everywhere
+        return -o['coefficient'] * np.sign(u) * np.maximum(np.abs(u) - o['f0_m_s2'], 0.0) ** 2
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -1060,9 +1073,13 @@ OOC_KINDS_UNSEEN6 = ['scale_bump', 'f_times_w', 'spin_settle']
 # written at stop 58 and first run on the stop-57 binary (suite 'unseen7'): an accel bias in f_x f_y f_z, a gyro
 # bias in |f_j|, a bias that lags the table motor's heat
 OOC_KINDS_UNSEEN7 = ['f_triple', 'abs_g', 'motor_heat']
+# written at stop 59 and first run on the stop-58 binary (suite 'unseen8'): a bias at one speed of the table (a
+# structural resonance the motor excites), a bias following the turns the table has wound up about the vertical
+# (a cable without a slip ring strains the mount), an accel output that compresses beyond a knee (odd, zero below it)
+OOC_KINDS_UNSEEN8 = ['rate_bump', 'cable_wrap', 'knee']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g')
-OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple')
+OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple', 'knee')
 
 
 def ooc_params(ooc_kind, amp, rng, scenario):
@@ -1132,6 +1149,13 @@ def ooc_params(ooc_kind, amp, rng, scenario):
     if ooc_kind == 'motor_heat':  # amp once the lag has settled while turning
         return dict(amplitude=amp, tau_s=float(rng.uniform(40, 200)), threshold_rad_s=math.radians(1.0),
                     fs_hz=float(scenario['sample_rate_hz']))
+    if ooc_kind == 'rate_bump':  # amp at the bump's speed, one of the schedule's rate levels
+        return dict(amplitude=amp, w0_rad_s=math.radians(float(rng.choice(scenario['rates_dps']))), width_frac=0.1)
+    if ooc_kind == 'cable_wrap':  # amp at the most the table has wound up over the run
+        return dict(amplitude=amp)
+    if ooc_kind == 'knee':  # amp at |f_j| = 1 g
+        f0 = 9.80665 * float(rng.uniform(0.4, 0.7))
+        return dict(coefficient=amp / (9.80665 - f0) ** 2, f0_m_s2=f0)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
 
 
