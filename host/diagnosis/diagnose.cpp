@@ -1421,7 +1421,7 @@ std::vector<SignatureFunction> signature_functions(const std::vector<Block>& blo
   // The rotation wound up about the vertical (Block::wound_rad): a cable twisted by the turns, or any strain that
   // remembers them. It moves only while the table turns about the specific force and holds through the dwells after,
   // one sign for each direction, so neither the rates, the turning's lags nor the settlings carry it.
-  feats.push_back({"turns wound about the vertical", [](const Block& b) { return b.wound_rad; }});
+  feats.push_back({"rotation wound about the vertical (rad)", [](const Block& b) { return b.wound_rad; }});
   // A settling after every motion (Block::settle): one sign whatever the pose or the turn, so neither the inputs
   // nor their lagged memories carry it, and on dwells of one length the bias takes all of it but for the moving
   // blocks and the dwells' differing lengths.

@@ -341,7 +341,7 @@ struct ScatterPoint {
 struct SignatureEntry {
   std::string input;   // "f_x", "f_x*f_y", "w_z^2", "f_y^3", "w_x^3", "T", "Tdot", "time", "segment", "cos(table angle 2)",
                        // "f_z low-passed at 30 s", "T near 42 degC (+-6)", "settling 10 s after each turn",
-                       // "turning low-passed at 100 s", "turns wound about the vertical", ...
+                       // "turning low-passed at 100 s", "rotation wound about the vertical (rad)", ...
                        // (docs/diagnosis.md, "Unexplained", lists them all)
   double correlation = 0;
 };

@@ -3113,7 +3113,7 @@ TEST(DiagnosisPipeline, AGyroThatFollowsTheTurnsWoundUpIsNamedForThem) {
     }
     return log;
   };
-  expect_gyro_x_named_for(make, 5e-5, basic_model(), "turns wound about the vertical");
+  expect_gyro_x_named_for(make, 5e-5, basic_model(), "rotation wound about the vertical (rad)");
 }
 
 // A gyro.x scale factor that bumps about one die temperature (Gaussian, 2.5 °C wide, 6e-5 high: a drive loop's
