@@ -52,6 +52,10 @@ const char* axis_name(int a) {
 namespace {
 
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Whether an `ambiguous` entry is the pair of effects a and b, whichever of the two was chosen.
+bool same_pair(const DiagnosisResult::Ambiguity& x, const std::string& a, const std::string& b) {
+  return (x.chosen == a && x.alternative == b) || (x.chosen == b && x.alternative == a);
+}
 // The mount rotation's corrections (diagnose(), "Mount rotation"): χ² of 3 dof a first one must pass (p 1e-3), and
 // a further one (p 0.01).
 const double kMountFirstChi2 = 16.27, kMountNextChi2 = 11.34;
@@ -2900,8 +2904,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       // One entry per pair, the latest choice (reported after the loop, for the choices that stayed selected).
       if (!amb.chosen.empty()) {
         auto same = std::find_if(R.ambiguous.begin(), R.ambiguous.end(), [&](const DiagnosisResult::Ambiguity& x) {
-          return (x.chosen == amb.chosen && x.alternative == amb.alternative) ||
-                 (x.chosen == amb.alternative && x.alternative == amb.chosen);
+          return same_pair(x, amb.chosen, amb.alternative);
         });
         if (same != R.ambiguous.end()) *same = amb;
         else R.ambiguous.push_back(amb);
@@ -2999,9 +3002,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     amb.components_alternative = sub_b.components;
     amb.nested = nested;
     R.ambiguous.erase(std::remove_if(R.ambiguous.begin(), R.ambiguous.end(),
-                                     [&](const DiagnosisResult::Ambiguity& x) {
-                                       return (x.chosen == bkey && x.alternative == ckey) || (x.chosen == ckey && x.alternative == bkey);
-                                     }),
+                                     [&](const DiagnosisResult::Ambiguity& x) { return same_pair(x, bkey, ckey); }),
                       R.ambiguous.end());
     R.ambiguous.push_back(amb);
     cur = with_c;
@@ -3104,34 +3105,34 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   // against the model without b (the larger AIC gain on the components the data need, best_subset_aic, as at the
   // forward step), c qualifies in b's place (plausibly) and b does not qualify beside c, c takes b's place and the
   // pair is reported as ambiguous. A pair the nested test above decided is not asked, and neither are timing and
-  // temp_hysteresis (the reference's re-evaluation, the profiled threshold). The in-sample bound of the nested step skips most pairs before any fold fit: where the
-  // swap's in-sample cost is significant at the level on b's dof, b qualifies beside c. O(selected · candidates ·
-  // in-sample fits), plus two scored fits per pair that passes.
+  // temp_hysteresis (the reference's re-evaluation, the profiled threshold). The in-sample bound of the nested step
+  // skips most pairs before any fold fit: where the swap's in-sample cost is significant at the level on b's dof, b
+  // qualifies beside c. O(selected · candidates · in-sample fits), plus two scored fits per pair that passes.
   {
     const double level = o.alpha / static_cast<double>(std::max<std::size_t>(1, candidates.size()));
     // The first step's candidates below its level (its qualifying ones and those its held-out or plausibility
     // rule held back: the pair's other half can read an implausible k3 until the effect that shares its signal is in).
     int m0 = 0;
     for (const auto& c : R.ranking) m0 += c.excitable ? 1 : 0;
-    std::set<std::pair<int, int>> significant_first;
+    std::set<std::pair<int, int>> below_level_first;
     for (const auto& c : R.ranking)
       if (c.excitable && c.p_value < o.alpha / std::max(1, m0)) {
         const auto [s_, e_] = effect_of(c.sensor, c.effect);
-        significant_first.insert({static_cast<int>(s_), static_cast<int>(e_)});
+        below_level_first.insert({static_cast<int>(s_), static_cast<int>(e_)});
       }
     for (const auto& be : swappable()) {
       if (!cur_effects.count(be)) continue;  // an earlier swap took it out
       const auto [bs, bef, rest, q_cur] = swap_subject(be);
       const int dof_b = static_cast<int>(candidate_params(bs, bef).size());
       std::optional<Subset> sub_b;
-      for (const auto& ce : significant_first) {
+      for (const auto& ce : below_level_first) {
         const Sensor cs_ = static_cast<Sensor>(ce.first);
         const Effect ce_ = static_cast<Effect>(ce.second);
         if (cs_ != bs || ce_ == bef || ce_ == Effect::kTiming || ce_ == Effect::kTempHysteresis || cur_effects.count(ce)) continue;
         // A pair the nested test decided stays decided: parsimony there, not the AIC.
         const std::string bkey = effect_key(bs, bef), ckey = effect_key(cs_, ce_);
         if (std::any_of(R.ambiguous.begin(), R.ambiguous.end(), [&](const DiagnosisResult::Ambiguity& x) {
-              return x.nested && ((x.chosen == bkey && x.alternative == ckey) || (x.chosen == ckey && x.alternative == bkey));
+              return x.nested && same_pair(x, bkey, ckey);
             }))
           continue;
         std::set<ParamId> with_c = rest;
