@@ -607,6 +607,21 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     if kind == 'knee':           # accel output compressing beyond a knee f0 (the front end leaving its linear range):
         u = f_imu[:, j]          # odd, zero below f0, quadratic past it; the catalog's k3 u^3 is a cubic everywhere
         return -o['coefficient'] * np.sign(u) * np.maximum(np.abs(u) - o['f0_m_s2'], 0.0) ** 2
+    if kind == 'mount_slip':     # the package slips on its mount once (an adhesive or solder joint giving way under
+        u = f_imu if o['sensor'] == 'accel' else w_imu  # the turns' load): a misalignment step, theta times another
+        t_slip = o['t_frac'] * t[-1]  # axis' input from t_slip on. The catalog's misalignment is constant over the run
+        return o['theta_rad'] * u[:, AX.index(o['input_axis'])] * (t >= t_slip)
+    if kind == 'popcorn':        # random telegraph (burst) noise: the bias jumps between 0 and amp at random times
+        rng = np.random.default_rng(o['seed'])  # with a mean dwell of hundreds of seconds (a trap in the ASIC's
+        flips, tt = [], 0.0      # reference charging and discharging); no function of the inputs and not the
+        while tt < t[-1]:        # catalog's Gaussian noises: two levels, sharp edges
+            tt += float(rng.exponential(o['dwell_s']))
+            flips.append(tt)
+        state = np.searchsorted(np.asarray(flips), t, side='right') % 2
+        return o['amplitude'] * state
+    if kind == 'compressor':     # the chamber's compressor runs while it cools and shakes the fixture: a bias
+        on = Tdot < -o['gate_C_per_s']  # oscillating with its cycle period while the die cools, none while it
+        return o['amplitude'] * on * np.sin(2 * np.pi * t / o['period_s'] + o['phase_rad'])  # warms or holds
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -1077,6 +1092,10 @@ OOC_KINDS_UNSEEN7 = ['f_triple', 'abs_g', 'motor_heat']
 # structural resonance the motor excites), a bias following the turns the table has wound up about the vertical
 # (a cable without a slip ring strains the mount), an accel output that compresses beyond a knee (odd, zero below it)
 OOC_KINDS_UNSEEN8 = ['rate_bump', 'cable_wrap', 'knee']
+# written at stop 60 and first run on the stop-59 binary (suite 'unseen9'): the package slipping once on its mount
+# (a misalignment step), random telegraph (burst) noise on the bias, the chamber's compressor shaking the fixture
+# while it cools (a bias oscillating with its cycle, gated on the die cooling)
+OOC_KINDS_UNSEEN9 = ['mount_slip', 'popcorn', 'compressor']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g')
 OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple', 'knee')
@@ -1156,6 +1175,14 @@ def ooc_params(ooc_kind, amp, rng, scenario):
     if ooc_kind == 'knee':  # amp at |f_j| = 1 g
         f0 = 9.80665 * float(rng.uniform(0.4, 0.7))
         return dict(coefficient=amp / (9.80665 - f0) ** 2, f0_m_s2=f0)
+    if ooc_kind == 'mount_slip':  # amp at the largest input (1 g, or the top rate)
+        return dict(theta_rad=None, amplitude=amp, _top_rate=math.radians(max(scenario['rates_dps'])),
+                    t_frac=float(rng.uniform(0.3, 0.7)), input_axis=None)
+    if ooc_kind == 'popcorn':
+        return dict(amplitude=amp, dwell_s=float(rng.uniform(200, 800)), seed=int(rng.integers(1 << 30)))
+    if ooc_kind == 'compressor':  # gated on a die cooling faster than a fifth of the chamber's slew
+        return dict(amplitude=amp, period_s=float(rng.uniform(60, 200)), phase_rad=float(rng.uniform(0, 2 * np.pi)),
+                    gate_C_per_s=0.2 * scenario['slew_C_per_min'] / 60.0)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
 
 
@@ -1166,6 +1193,10 @@ def ooc_fill_axis(o, rng):
     if o['kind'] == 'scale_age':  # the scale change over the run gives amp at the largest input (1 g, or the top rate)
         top = o.pop('_top_rate')
         o['per_unit'] = 2.0 * o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
+    if o['kind'] == 'mount_slip':
+        top = o.pop('_top_rate')
+        o['theta_rad'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
+        o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
     if o['kind'] == 'scale_bump':
         top = o.pop('_top_rate')
         o['per_unit'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
