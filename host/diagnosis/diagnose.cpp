@@ -1337,6 +1337,43 @@ using SignatureFunction = std::pair<std::string, std::function<double(const Bloc
 // The simple functions of the logged inputs a residual signature ranks (residual_signature), by name; also what
 // the report's residual plot is drawn against when one of them leads (diagnose_core). pv: the blocks' variances,
 // the weights of the means that temperature and time are taken about.
+// "f_x*time" … "w_z*time", the library's inputs times time: k (0–2) and whether it is a specific force.
+bool is_input_times_time(const std::string& name, int& k, bool& is_f) {
+  if (name.size() != 8 || name.compare(3, 5, "*time") != 0 || (name[0] != 'f' && name[0] != 'w') || name[1] != '_' ||
+      name[2] < 'x' || name[2] > 'z')
+    return false;
+  k = name[2] - 'x';
+  is_f = name[0] == 'f';
+  return true;
+}
+
+// Where an input times a step may start: 46 block times, the 5th to the 95th percentile of the blocks' times
+// (a step nearer an end is a bias over a few segments, which "segment" already reads). O(B log B).
+std::vector<double> step_t0_grid(const std::vector<Block>& blocks) {
+  std::vector<double> ts;
+  for (const Block& b : blocks) ts.push_back(b.t);
+  std::sort(ts.begin(), ts.end());
+  std::vector<double> out;
+  if (ts.size() < 2) return out;
+  for (int q = 0; q <= 45; ++q)
+    out.push_back(ts[static_cast<std::size_t>((0.05 + 0.9 * q / 45.0) * static_cast<double>(ts.size() - 1))]);
+  return out;
+}
+
+// "w_y from 1617 s on": the input of an input-times-time name, from t0 (seconds after the first block) on. Where
+// later grid times t0..t0_last give the same function (the input is zero between them: a soak at a pose that does
+// not load it), the step lies anywhere there: "f_x from between 1512 and 4136 s on".
+std::string step_name(const std::string& times_time, double t0, double t0_last, const std::vector<Block>& blocks) {
+  double t_first = t0;
+  for (const Block& b : blocks) t_first = std::min(t_first, b.t);
+  char buf[80];
+  if (t0_last > t0)
+    std::snprintf(buf, sizeof buf, "%.3s from between %.0f and %.0f s on", times_time.c_str(), t0 - t_first, t0_last - t_first);
+  else
+    std::snprintf(buf, sizeof buf, "%.3s from %.0f s on", times_time.c_str(), t0 - t_first);
+  return buf;
+}
+
 std::vector<SignatureFunction> signature_functions(const std::vector<Block>& blocks, const std::vector<double>& pv) {
   const char* ax = "xyz";
   std::vector<SignatureFunction> feats;
@@ -1533,6 +1570,31 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
                    }});
   std::vector<SignatureEntry> out;
   Eigen::VectorXd xv(B);
+  // The weighted correlation of xv (ok: the blocks that have it) with the projected residual; NaN when either
+  // has no spread.
+  auto correlation = [&](const Eigen::VectorXd& x_b, const std::vector<char>& ok) {
+    double sw = 0, sx = 0, sy = 0;
+    for (int b = 0; b < B; ++b) {
+      if (!ok[static_cast<std::size_t>(b)]) continue;
+      const double w = 1.0 / pv[static_cast<std::size_t>(b)];
+      sw += w;
+      sx += w * x_b[b];
+      sy += w * rr[static_cast<std::size_t>(b)];
+    }
+    if (!(sw > 0)) return std::numeric_limits<double>::quiet_NaN();
+    const double mx = sx / sw, my = sy / sw;
+    double cxx = 0, cyy = 0, cxy = 0;
+    for (int b = 0; b < B; ++b) {
+      if (!ok[static_cast<std::size_t>(b)]) continue;
+      const double x = x_b[b];
+      const double w = 1.0 / pv[static_cast<std::size_t>(b)];
+      cxx += w * (x - mx) * (x - mx);
+      cyy += w * (rr[static_cast<std::size_t>(b)] - my) * (rr[static_cast<std::size_t>(b)] - my);
+      cxy += w * (x - mx) * (rr[static_cast<std::size_t>(b)] - my);
+    }
+    if (!(cxx > 1e-30 * sw) || !(cyy > 0)) return std::numeric_limits<double>::quiet_NaN();
+    return cxy / std::sqrt(cxx * cyy);
+  };
   for (const auto& [name, fn] : feats) {
     std::vector<char> ok(static_cast<std::size_t>(B), 0);
     for (int b = 0; b < B; ++b) {
@@ -1553,31 +1615,38 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
       project_off(xv);
       if (!(wnorm2(xv) > 1e-10 * before)) continue;
     }
-    double sw = 0, sx = 0, sy = 0;
-    for (int b = 0; b < B; ++b) {
-      if (!ok[static_cast<std::size_t>(b)]) continue;
-      const double x = xv[b];
-      const double w = 1.0 / pv[static_cast<std::size_t>(b)];
-      sw += w;
-      sx += w * x;
-      sy += w * rr[static_cast<std::size_t>(b)];
-    }
-    if (!(sw > 0)) continue;
-    const double mx = sx / sw, my = sy / sw;
-    double cxx = 0, cyy = 0, cxy = 0;
-    for (int b = 0; b < B; ++b) {
-      if (!ok[static_cast<std::size_t>(b)]) continue;
-      const double x = xv[b];
-      const double w = 1.0 / pv[static_cast<std::size_t>(b)];
-      cxx += w * (x - mx) * (x - mx);
-      cyy += w * (rr[static_cast<std::size_t>(b)] - my) * (rr[static_cast<std::size_t>(b)] - my);
-      cxy += w * (x - mx) * (rr[static_cast<std::size_t>(b)] - my);
-    }
-    if (!(cxx > 1e-30 * sw) || !(cyy > 0)) continue;
-    out.push_back({name, cxy / std::sqrt(cxx * cyy)});
+    const double c = correlation(xv, ok);
+    if (std::isfinite(c)) out.push_back({name, c});
   }
   std::stable_sort(out.begin(), out.end(),
                    [](const SignatureEntry& a, const SignatureEntry& b) { return std::fabs(a.correlation) > std::fabs(b.correlation); });
+  // A sensitivity that changed at once rather than gradually (the package slipping on its mount: a misalignment
+  // step) reads as the nearest product with time. Where an input times time is the first input function, the
+  // input times a step at t0 is asked too (step_t0_grid, the stand-in check's grid), and the likeliest step goes
+  // ahead of it where it correlates better: "w_y from 1617 s on" (`unseen9` ooc-mount_slip-1, the truth's slip at
+  // 1575 s, read as w_y*time at r 0.74).
+  {
+    const auto first = std::find_if(out.begin(), out.end(), [](const SignatureEntry& e) { return e.input != "segment"; });
+    int k = -1;
+    bool is_f = false;
+    if (first != out.end() && is_input_times_time(first->input, k, is_f)) {
+      double best = std::fabs(first->correlation), best_c = 0, best_t0 = std::numeric_limits<double>::quiet_NaN();
+      double last_t0 = best_t0;  // the last grid time giving the same function (the input is 0 between them)
+      const std::vector<char> all_ok(static_cast<std::size_t>(B), 1);
+      for (const double t0 : step_t0_grid(blocks)) {
+        for (int b = 0; b < B; ++b) {
+          const Block& x = blocks[static_cast<std::size_t>(b)];
+          xv[b] = x.t >= t0 ? (is_f ? x.f[k] : x.w[k]) : 0.0;
+        }
+        if (project) project_off(xv);
+        const double c = correlation(xv, all_ok);
+        if (!std::isfinite(c)) continue;
+        if (std::fabs(c) > best * (1.0 + 1e-9)) best = std::fabs(c), best_c = c, best_t0 = last_t0 = t0;
+        else if (std::isfinite(best_t0) && std::fabs(c) >= best * (1.0 - 1e-9)) last_t0 = t0;
+      }
+      if (std::isfinite(best_t0)) out.insert(first, {step_name(first->input, best_t0, last_t0, blocks), best_c});
+    }
+  }
   // "segment" is the residual's own per-segment mean: it bounds what any per-segment function can reach and
   // is ~1 whenever a segment is one block (static poses), so it names the residual only when no logged input
   // comes close (within 80 % of its |r|); otherwise the best input leads.
@@ -2642,10 +2711,14 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   auto wander_reason = [&](const std::array<WholeLogWander, 3>& lines, const WholeLogWander& l) -> const char* {
     const bool rw_likelier = raises(lines[1]) && (!raises(lines[0]) || lines[1].gain >= lines[0].gain);
     const double limit = l.kind == WholeLogWander::kRandomWalk && rw_likelier ? o.wander_rw_max_factor : o.wander_max_factor;
-    return l.limit_ratio > limit ? "too_large"
-           : l.max_abs_z > o.wander_max_z && l.jump_persist_z > o.wander_step_persist_z ? "jump"
+    // The shape's failures first: a raise past its limit that also leaves a step or a line is that structure, which
+    // names the axis (is_structured, below), where "too large" alone does not. `unseen9` mixed-compressor accel.y:
+    // a bias oscillating while the chamber cools, which the dwells (cooling too) read as a flicker 6x the class's;
+    // the walk raised 15x leaves a line of period 78 s at p 3e-16, and the axis went unnamed as "too large".
+    return l.max_abs_z > o.wander_max_z && l.jump_persist_z > o.wander_step_persist_z ? "jump"
            : l.line_p < o.wander_max_line_p ? "periodic"
-                                              : "";
+           : l.limit_ratio > limit          ? "too_large"
+                                            : "";
   };
   // The likelier line, unless it fails a check and the other passes them (flicker and random walk differ in shape
   // beyond a quarter of the log, where the likelihood tells them apart least).
@@ -3816,8 +3889,8 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   // walk, and the floor it raised hides the residual from the held-out χ².
   auto is_structured = [](const DiagnosisResult::Wander& w) {
     return w.beyond_reason == "jump" || w.beyond_reason == "periodic" || w.beyond_reason == "sinusoid" ||
-           w.beyond_reason == "drift" || w.beyond_reason == "settling" || w.beyond_reason == "input" ||
-           w.beyond_reason == "follows";
+           w.beyond_reason == "modulated" || w.beyond_reason == "drift" || w.beyond_reason == "settling" ||
+           w.beyond_reason == "input" || w.beyond_reason == "follows";
   };
   auto assess_wander = [&](int a) -> std::optional<DiagnosisResult::Wander> {
     const auto ua = static_cast<std::size_t>(a);
@@ -3858,14 +3931,32 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       w.sinusoid = periodic_bias(m0, blk_t, blk_dur, rows, rw0, R.duration_s, &blk_seg);
       w.trend = trend_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick, &blk_seg);
       if (std::getenv("IMUFORGE_DIAG_TRACE"))
-        std::fprintf(stderr, "periodic %s: pick %s gain %.1f evidence %.1f ratio %.2f | sine gain %.1f period %.0f s (%d periods) | trend gain %.1f, LR %.1f | settle LR %.1f tau %.0f s\n",
+        std::fprintf(stderr, "periodic %s: pick %s gain %.1f evidence %.1f ratio %.2f | sine gain %.1f period %.0f s (%d periods) | modulated gain %.1f period %.0f s (%d windows) | trend gain %.1f, LR %.1f | settle LR %.1f tau %.0f s\n",
                      axis_name(a), pick->kind == WholeLogWander::kFlicker ? "flicker" : "rw", pick->gain, pick->evidence(),
-                     pick->ratio, w.sinusoid.gain, w.sinusoid.period_s, w.sinusoid.n_periods, w.trend.line_gain, w.trend.gain,
+                     pick->ratio, w.sinusoid.gain, w.sinusoid.period_s, w.sinusoid.n_periods, w.sinusoid.mod_gain,
+                     w.sinusoid.mod_period_s, w.sinusoid.mod_windows, w.trend.line_gain, w.trend.gain,
                      w.trend.settle_gain, w.trend.settle_tau_s);
       if (w.sinusoid.gain - pick->gain > o.wander_sinusoid_margin)
         w.beyond_reason = "sinusoid";
       else if (std::max(w.trend.gain, w.trend.settle_gain) > o.wander_trend_chi2)
         w.beyond_reason = w.trend.gain >= w.trend.settle_gain ? "drift" : "settling";
+      // A line whose amplitude changes through the log (noise_model.h, PeriodicBias::mod_*), asked as the
+      // hats' curve is below: its stretches' columns together beside the raise, each profiled, on 2·windows dof,
+      // the bar's χ²(1) tail halved and shared among the periods searched (the look-elsewhere count).
+      if (w.beyond_reason.empty() && o.wander_modulated_chi2 > 0 && w.sinusoid.mod_windows >= 2) {
+        const Eigen::MatrixXd mcols =
+            modulated_sinusoid(blk_t, blk_dur, w.sinusoid.mod_period_s, w.sinusoid.mod_windows);
+        const InputBias g = input_group_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick,
+                                             mcols, &blk_seg);
+        w.modulated_gain = g.gain;
+        w.modulated_own_gain = g.own_gain;
+        const double p_group = g.n_functions > 0 ? chi2_sf(g.gain, g.n_functions) : 1.0;
+        const double p_bar = 0.5 * chi2_sf(o.wander_modulated_chi2, 1.0) / std::max(1, w.sinusoid.n_periods);
+        if (std::getenv("IMUFORGE_DIAG_TRACE"))
+          std::fprintf(stderr, "modulated %s: period %.0f s in %d stretches beside the raise LR %.1f (own %.1f) p %.2g, bar p %.2g\n",
+                       axis_name(a), w.sinusoid.mod_period_s, w.sinusoid.mod_windows, g.gain, g.own_gain, p_group, p_bar);
+        if (p_group < p_bar) w.beyond_reason = "modulated";
+      }
       // Does the residual the raise takes follow a logged input (noise_model.h, input_bias)? The signature
       // library's functions, time left to the drift check above; the bar carries the look-elsewhere count.
       if (w.beyond_reason.empty() && o.wander_follows_chi2 > 0) {
@@ -4017,16 +4108,23 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           if (!touched || !o.whole_log_wander || R.wander[ua].adopted) continue;
           if (!wander_asked[ua]) wander_asked[ua] = assess_wander(a);
           const std::optional<DiagnosisResult::Wander>& w = wander_asked[ua];
-          if (!w || w->beyond_reason != "follows" || w->within_rounding || w->follows.best < 0 ||
-              std::max(w->measured.gain, w->follows.own_gain) < o.wander_unexplained_gain)
+          if (!w || w->within_rounding) continue;
+          if (w->beyond_reason == "follows" && w->follows.best >= 0 &&
+              std::max(w->measured.gain, w->follows.own_gain) >= o.wander_unexplained_gain) {
+            const Eigen::VectorXd g = follows_F.col(w->follows.best);
+            const double gmax = g.cwiseAbs().maxCoeff();
+            if (!(gmax > 0)) continue;
+            gcol[ka] = g / gmax;
+            gname[ka] = w->follows_input;
+            gnoise[ka] = with_wander(R.stoch[ua], &w->measured, R.duration_s, R.rw_prior_var[ua], grw[ka]);
             continue;
-          const Eigen::VectorXd g = follows_F.col(w->follows.best);
-          const double gmax = g.cwiseAbs().maxCoeff();
-          if (!(gmax > 0)) continue;
-          gcol[ka] = g / gmax;
-          gname[ka] = w->follows_input;
-          gnoise[ka] = with_wander(R.stoch[ua], &w->measured, R.duration_s, R.rw_prior_var[ua], grw[ka]);
-          continue;
+          }
+          // Named because what is left grows with the input ("input"): no one function beat the raise, and the raise
+          // is refused, so the axis is judged at the dwells' level; the function is the held-out residual's, as on an
+          // axis over the threshold (below). The misalignment step of the test
+          // AMisalignmentThatStepsMidRunIsNotReadAsATemperatureCoefficient at 5e-5 rad: the temperature coefficient
+          // takes enough that the rest reads as a spread growing with ω_y.
+          if (w->beyond_reason != "input" || w->measured.gain < o.wander_unexplained_gain) continue;
         }
         std::vector<double> pva;
         const std::vector<SignatureEntry> sig = signature_of(a, 0.0, 0.0, &pva);
@@ -4058,9 +4156,8 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           const Fit f = fit_axis(ad, cols_for(ad, cur), -1);
           const int P = static_cast<int>(f.kept.size());
           Eigen::MatrixXd rows = design_rows(ad, f.kept, 1);
-          rows.col(P + 1) = gcol[ua - 3 * static_cast<std::size_t>(si)];
           const auto ka = ua - 3 * static_cast<std::size_t>(si);
-          const estimator::NormalEquations ne = gls_normal_equations(gnoise[ka], blk_t, blk_dur, rows, grw[ka], &blk_seg);
+          rows.col(P + 1) = gcol[ka];
           std::vector<int> all, no_e, no_g;
           for (int i = 0; i < P; ++i) {
             const auto& pi = model::param_info(ad.cols[static_cast<std::size_t>(f.kept[static_cast<std::size_t>(i)])]);
@@ -4070,6 +4167,39 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           }
           all.push_back(P);
           no_e.push_back(P);
+          std::string g_label = gname[ka];
+          estimator::NormalEquations ne = gls_normal_equations(gnoise[ka], blk_t, blk_dur, rows, grw[ka], &blk_seg);
+          // A sensitivity that changed during the run changed gradually (an input times time, the library's) or at
+          // once: the package slipping on its mount, a misalignment step (`unseen9` ooc-mount_slip-1 gyro.z, ω_y
+          // from mid-run on, named on ω_y·time at r 0.53 while gyro.misalign_temp took 71 % of it through the cold
+          // half). The input times a step at t0 is asked too, t0 on the blocks' times between the 5th and 95th
+          // percentile (step_t0_grid), the likeliest beside the model without the effect; the step replaces the line
+          // where it fits better there.
+          int k = -1;
+          bool is_f = false;
+          if (is_input_times_time(g_label, k, is_f)) {
+            auto input_of = [&](int b) {
+              const Block& x = blocks[static_cast<std::size_t>(b)];
+              return is_f ? x.f[k] : x.w[k];
+            };
+            double best_rss = estimator::fit_subset(ne, no_e).rss, best_t0 = std::numeric_limits<double>::quiet_NaN();
+            Eigen::MatrixXd rs = rows;
+            for (const double t0 : step_t0_grid(blocks)) {
+              for (int b = 0; b < B; ++b) rs(b, P + 1) = blocks[static_cast<std::size_t>(b)].t >= t0 ? input_of(b) : 0.0;
+              const double gm = rs.col(P + 1).cwiseAbs().maxCoeff();
+              if (!(gm > 0)) continue;
+              rs.col(P + 1) /= gm;
+              const double rss =
+                  estimator::fit_subset(gls_normal_equations(gnoise[ka], blk_t, blk_dur, rs, grw[ka], &blk_seg), no_e).rss;
+              if (rss < best_rss) best_rss = rss, best_t0 = t0;
+            }
+            if (std::isfinite(best_t0)) {
+              for (int b = 0; b < B; ++b) rows(b, P + 1) = blocks[static_cast<std::size_t>(b)].t >= best_t0 ? input_of(b) : 0.0;
+              rows.col(P + 1) /= rows.col(P + 1).cwiseAbs().maxCoeff();
+              ne = gls_normal_equations(gnoise[ka], blk_t, blk_dur, rows, grw[ka], &blk_seg);
+              g_label = step_name(g_label, best_t0, best_t0, blocks);
+            }
+          }
           const estimator::SubsetFit f_all = estimator::fit_subset(ne, all), f_no_e = estimator::fit_subset(ne, no_e),
                                      f_no_g = estimator::fit_subset(ne, no_g);
           const int dof_e = static_cast<int>(f_all.kept.size()) - static_cast<int>(f_no_e.kept.size());
@@ -4078,15 +4208,15 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           const double p_e = dof_e > 0 ? chi2_sf(lr_e, dof_e) : 1.0, p_g = dof_g > 0 ? chi2_sf(lr_g, dof_g) : 1.0;
           if (std::getenv("IMUFORGE_DIAG_TRACE"))
             std::fprintf(stderr, "standin %s.%s %s vs %s: effect|g LR %.1f on %d dof p %.2g; g|effect LR %.1f p %.2g (level %.2g)\n",
-                         model::sensor_name(s), model::effect_info(e).name, axis_name(a),
-                         gname[ua - 3 * static_cast<std::size_t>(si)].c_str(), lr_e, dof_e, p_e, lr_g, p_g, level);
+                         model::sensor_name(s), model::effect_info(e).name, axis_name(a), g_label.c_str(), lr_e, dof_e, p_e,
+                         lr_g, p_g, level);
           if (!(p_g < level && p_e >= level)) continue;
           if (why.empty()) {
             char buf[300];
             std::snprintf(buf, sizeof buf,
                           "a stand-in for what %s follows (%s): beside that function it is not significant (LR %.1f on %d dof, "
                           "p %.2g) and the function still is (LR %.1f)",
-                          axis_name(a), gname[ua - 3 * static_cast<std::size_t>(si)].c_str(), lr_e, dof_e, p_e, lr_g);
+                          axis_name(a), g_label.c_str(), lr_e, dof_e, p_e, lr_g);
             why = buf;
           }
           bad.push_back(a);
@@ -4155,7 +4285,9 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       w = *asked;
       const bool structured = is_structured(w);
       // An axis already named on its held-out χ² whose residual is that sinusoid or transient: its signature gets it.
-      const double sig_period_s = w.beyond_reason == "sinusoid" ? w.sinusoid.period_s : 0.0;
+      const double sig_period_s = w.beyond_reason == "sinusoid"    ? w.sinusoid.period_s
+                                  : w.beyond_reason == "modulated" ? w.sinusoid.mod_period_s
+                                                                   : 0.0;
       const double sig_tau_s = w.beyond_reason == "settling" ? w.trend.settle_tau_s : 0.0;
       if ((sig_period_s > 0 || sig_tau_s > 0) && over(R.gap_after, a))
         for (auto& u : R.unexplained)
@@ -4166,6 +4298,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       const double shape_gain = w.beyond_reason == "drift"      ? w.trend.line_gain
                                 : w.beyond_reason == "settling" ? w.trend.settle_own_gain
                                 : w.beyond_reason == "follows"  ? w.follows.own_gain
+                                : w.beyond_reason == "modulated" ? w.modulated_own_gain
                                                                 : 0.0;
       if (structured && !w.within_rounding && std::max(w.measured.gain, shape_gain) >= o.wander_unexplained_gain &&
           !over(R.gap_after, a)) {

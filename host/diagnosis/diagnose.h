@@ -233,6 +233,10 @@ struct Options {
   // likelihood ratio of the raise beside the signature library's best function against the raise alone above
   // this plus 2 ln(number of functions asked), the look-elsewhere count. 0 turns the check off.
   double wander_follows_chi2 = 25.0;
+  // Nor is a raise beside which a sinusoid with its own amplitude and phase in each stretch of the log
+  // (noise_model.h, PeriodicBias::mod_*) is likelier: the stretches' columns together, their likelihood ratio's
+  // χ²(2·stretches) tail against the χ²(1) tail of this, halved and divided by the periods searched. 0: off.
+  double wander_modulated_chi2 = 25.0;
   // Nor is a raise whose innovations' spread grows with the inputs (noise_model.h, WholeLogWander::hetero_*: the
   // rotation speed and the axis' own input magnitude, Koenker–Breusch–Pagan): a bias wander adds the same variance
   // whatever the table does. Refused when the test's p is below wander_max_hetero_p, the variance where the fit puts
@@ -401,8 +405,12 @@ struct DiagnosisResult {
                                       // the raise: Options::wander_trend_chi2), or "input" (its innovations'
                                       // spread grows with the inputs: Options::wander_max_hetero_p), or
                                       // "follows" (a function of the logged inputs beats the raise:
-                                      // Options::wander_follows_chi2)
+                                      // Options::wander_follows_chi2), or "modulated" (a sinusoid whose amplitude
+                                      // changes through the log: Options::wander_modulated_chi2)
     PeriodicBias sinusoid;            // the best sinusoid, where the raise passed the other checks (else gain 0)
+    double modulated_gain = 0;        // the modulated sinusoid's columns beside the raise
+                                      // (Options::wander_modulated_chi2)
+    double modulated_own_gain = 0;    // and under the model's own level
     TrendBias trend;                  // the drift and settling shapes, asked with the sinusoid (else gains 0)
     InputBias follows;                // the best function of the logged inputs beside the raise (else gain 0)
     std::string follows_input;        // its name in the signature library ("|Tdot|", "f_x^2", ...), or "a curve in

@@ -468,6 +468,23 @@ std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const s
   return out;
 }
 
+Eigen::MatrixXd modulated_sinusoid(const std::vector<double>& t_s, const std::vector<double>& dur_s, double period_s,
+                                   int windows) {
+  const int n = static_cast<int>(t_s.size());
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(n, 2 * std::max(windows, 1));
+  if (n == 0 || !(period_s > 0) || windows < 1) return out;
+  const double t0 = t_s.front(), span = t_s.back() - t0, w = 2.0 * M_PI / period_s;
+  for (int i = 0; i < n; ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    const double ph = w * (t_s[ui] - t0), x = 0.5 * w * dur_s[ui];
+    const double sinc = x > 1e-9 ? std::sin(x) / x : 1.0;
+    const int wi = span > 0 ? std::min(windows - 1, static_cast<int>((t_s[ui] - t0) / span * windows)) : 0;
+    out(i, 2 * wi) = sinc * std::sin(ph);
+    out(i, 2 * wi + 1) = sinc * std::cos(ph);
+  }
+  return out;
+}
+
 PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                            const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
                            const std::vector<int>* seg_of) {
@@ -481,15 +498,7 @@ PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& 
   const double t0 = t_s.front();
   // The pair of columns of frequency f into columns j, j + 1 of dst: a block's mean of the sinusoid, its value at
   // the mid time times sinc(π f · dur).
-  auto fill = [&](Eigen::MatrixXd& dst, int j, double f) {
-    const double w = 2.0 * M_PI * f;
-    for (int i = 0; i < n; ++i) {
-      const double ph = w * (t_s[static_cast<std::size_t>(i)] - t0), x = 0.5 * w * dur_s[static_cast<std::size_t>(i)];
-      const double sinc = x > 1e-9 ? std::sin(x) / x : 1.0;
-      dst(i, j) = sinc * std::sin(ph);
-      dst(i, j + 1) = sinc * std::cos(ph);
-    }
-  };
+  auto fill = [&](Eigen::MatrixXd& dst, int j, double f) { dst.middleCols(j, 2) = modulated_sinusoid(t_s, dur_s, 1.0 / f, 1); };
   Eigen::MatrixXd aug(n, c + 2 * F);
   aug.leftCols(c) = rows;
   for (int k = 0; k < F; ++k) fill(aug, c + 2 * k, freqs[static_cast<std::size_t>(k)]);
@@ -499,14 +508,42 @@ PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& 
   const double rss0 = estimator::fit_subset(ne, cols).rss;
   cols.resize(static_cast<std::size_t>(P) + 2);
   int best = -1;
+  std::vector<double> gk(static_cast<std::size_t>(F));
   for (int k = 0; k < F; ++k) {
     cols[static_cast<std::size_t>(P)] = P + 2 * k;
     cols[static_cast<std::size_t>(P) + 1] = P + 2 * k + 1;
-    const double g = rss0 - estimator::fit_subset(ne, cols).rss;
+    const double g = gk[static_cast<std::size_t>(k)] = rss0 - estimator::fit_subset(ne, cols).rss;
     if (g > out.gain) out.gain = g, best = k;
   }
   out.n_periods = F;
   if (best < 0) return out;
+  // The modulated line (header): windows by a block's mid time, each holding three cycles at least.
+  {
+    std::vector<std::pair<double, int>> peaks;
+    const double span = t_s.back() - t0;
+    for (int k = 0; k < F; ++k) {
+      if (span * freqs[static_cast<std::size_t>(k)] < 6.0) continue;  // two stretches of three cycles at least
+      const double g = gk[static_cast<std::size_t>(k)];
+      if ((k == 0 || g >= gk[static_cast<std::size_t>(k) - 1]) && (k == F - 1 || g >= gk[static_cast<std::size_t>(k) + 1]))
+        peaks.push_back({g, k});
+    }
+    std::sort(peaks.begin(), peaks.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+    if (peaks.size() > 3) peaks.resize(3);
+    for (const auto& [g0, k] : peaks) {
+      const double f = freqs[static_cast<std::size_t>(k)];
+      const int W = std::min(8, static_cast<int>(std::floor(span * f / 3.0)));
+      if (W < 2 || !(span > 0)) continue;
+      Eigen::MatrixXd wm(n, c + 2 * W);
+      wm.leftCols(c) = rows;
+      wm.rightCols(2 * W) = modulated_sinusoid(t_s, dur_s, 1.0 / f, W);
+      const estimator::NormalEquations nw = gls_normal_equations(m, t_s, dur_s, wm, rw_prior_var, seg_of);
+      std::vector<int> base(static_cast<std::size_t>(P)), full(static_cast<std::size_t>(P + 2 * W));
+      std::iota(base.begin(), base.end(), 0);
+      std::iota(full.begin(), full.end(), 0);
+      const double g = estimator::fit_subset(nw, base).rss - estimator::fit_subset(nw, full).rss;
+      if (g > out.mod_gain) out.mod_gain = g, out.mod_period_s = 1.0 / f, out.mod_windows = W;
+    }
+  }
   // The grid's best frequency refined between its neighbours (golden section): a strong sinusoid loses much of
   // its gain a third of a grid step off its frequency, and the random walk takes up what the misfit leaves.
   Eigen::MatrixXd two(n, c + 2);

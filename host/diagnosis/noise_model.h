@@ -148,14 +148,32 @@ std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const s
 // cycles at least: a slower one is one swing, which a wander makes as well) on a grid 3× finer than 1/duration_s,
 // the best refined between its neighbours. gain: its Δχ² (= Δ(−2 log L), the noise held), comparable with
 // WholeLogWander::gain; n_periods: how many grid periods were searched (the look-elsewhere count).
-// O(n · (P + 2F)² + F · P³ + 18 · n · P²), F = n_periods ≈ 70.
+// A periodic disturbance that runs only part of the time (a chamber's compressor while it cools, a fan, a pump)
+// is one line whose amplitude changes through the log: the constant sinusoid fits it where it runs and adds it
+// where it does not, so it gains half of what the line carries at best, and a random walk raised to follow it can
+// gain more (`unseen9` ooc-compressor-1 gyro.y: an 86 s oscillation while the die cools, sinusoid 252 against a
+// walk raised 12.8x at 811). mod_*: at each of the three best grid periods (local maxima of the constant fit's
+// gain among the periods of six cycles or more), the sinusoid with its own amplitude and phase in each of
+// mod_windows equal stretches of the log, as many as hold three cycles each, 2 to 8; mod_gain its Δχ² as gain's
+// (2·mod_windows columns), at mod_period_s (mod_windows 0: no such period). A stationary wander spreads its power
+// over the band and no one line takes much of it in any stretch.
+// O(n · (P + 2F)² + F · P³ + 18 · n · P² + 3 · n · (P + 16)²), F = n_periods ≈ 70.
 struct PeriodicBias {
   double gain = 0, period_s = 0;
   int n_periods = 0;
+  double mod_gain = 0, mod_period_s = 0;
+  int mod_windows = 0;
 };
 PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& t_s, const std::vector<double>& dur_s,
                            const Eigen::Ref<const Eigen::MatrixXd>& rows, double rw_prior_var, double duration_s,
                            const std::vector<int>* seg_of = nullptr);
+
+// The columns of a sinusoid of period_s with its own amplitude and phase in each of `windows` equal stretches of
+// t_s's span (a block in the stretch of its mid time): sin, cos of stretch k in columns 2k, 2k + 1, each a block's
+// mean (the value at the mid time times sinc(π dur / period_s)), zero outside the stretch. windows = 1: the
+// constant sinusoid. O(n).
+Eigen::MatrixXd modulated_sinusoid(const std::vector<double>& t_s, const std::vector<double>& dur_s, double period_s,
+                                   int windows);
 
 // A bias that moves linearly with time over the log (ageing, package stress settling; IEEE 952's rate ramp)
 // against the raised wander that would take it, as periodic_bias asks of a sinusoid. The walk's whitening

@@ -174,6 +174,11 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
         line += "; not a stationary bias wander either: a sinusoid of period " + fmt("%.0f", w.sinusoid.period_s) +
                 " s explains the whole log's residual better (-2 log L gain " + fmt("%.0f", w.sinusoid.gain) + " against " +
                 fmt("%.0f", w.measured.gain) + " for a " + (w.kind == "flicker" ? "flicker" : "random walk") + ")";
+      else if (w.beyond_limit && w.beyond_reason == "modulated")
+        line += "; not a stationary bias wander either: a sinusoid of period " + fmt("%.0f", w.sinusoid.mod_period_s) +
+                " s whose amplitude changes through the log (its own in each of " + std::to_string(w.sinusoid.mod_windows) +
+                " stretches) explains the whole log's residual beside a " + (w.kind == "flicker" ? "flicker" : "random walk") +
+                " (likelihood ratio " + fmt("%.0f", w.modulated_gain) + ")";
       else if (w.beyond_limit && w.beyond_reason == "input")
         line += "; not a stationary bias wander either: what is left grows with the input (its spread " +
                 fmt("%.0f", w.measured.hetero_ratio) + "x larger where the rate or the axis' own input is largest; Breusch-Pagan LM " +
@@ -268,6 +273,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
       line += std::string("; the whole log's residual carries ") +
               (r.wander[u].beyond_reason == "periodic" ? "a line of period " + fmt("%.0f", r.wander[u].measured.line_period_s) + " s"
                : r.wander[u].beyond_reason == "sinusoid" ? "a sinusoid of period " + fmt("%.0f", r.wander[u].sinusoid.period_s) + " s"
+               : r.wander[u].beyond_reason == "modulated" ? "a sinusoid of period " + fmt("%.0f", r.wander[u].sinusoid.mod_period_s) + " s whose amplitude changes through the log"
                : r.wander[u].beyond_reason == "drift"    ? "a linear drift of " + fmt("%.2g", r.wander[u].trend.slope_per_s * 3600.0) + " " + unit_of(a) + " per hour"
                : r.wander[u].beyond_reason == "settling" ? "a settling of time constant " + fmt("%.0f", r.wander[u].trend.settle_tau_s) + " s"
                : r.wander[u].beyond_reason == "input"    ? std::string("a residual that grows with the input")
@@ -439,6 +445,8 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                                                  {"line_period_s", num(r.wander[u].measured.line_period_s)},
                                                  {"hetero_lm", num(r.wander[u].measured.hetero_lm)}, {"hetero_p", num(r.wander[u].measured.hetero_p)}, {"hetero_ratio", num(r.wander[u].measured.hetero_ratio)},
                                                  {"sinusoid_gain", num(r.wander[u].sinusoid.gain)}, {"sinusoid_period_s", num(r.wander[u].sinusoid.period_s)},
+                                                 {"modulated_period_s", num(r.wander[u].sinusoid.mod_period_s)}, {"modulated_stretches", r.wander[u].sinusoid.mod_windows},
+                                                 {"modulated_lr", num(r.wander[u].modulated_gain)},
                                                  {"drift_lr", num(r.wander[u].trend.gain)}, {"drift_per_h", num(r.wander[u].trend.slope_per_s * 3600.0)},
                                                  {"settling_lr", num(r.wander[u].trend.settle_gain)}, {"settling_tau_s", num(r.wander[u].trend.settle_tau_s)},
                                                  {"settling_amplitude", num(r.wander[u].trend.settle_amplitude)},
