@@ -1334,9 +1334,6 @@ std::vector<int> cols_for(const AxisData& ad, const std::set<ParamId>& model_ids
 
 using SignatureFunction = std::pair<std::string, std::function<double(const Block&)>>;
 
-// The simple functions of the logged inputs a residual signature ranks (residual_signature), by name; also what
-// the report's residual plot is drawn against when one of them leads (diagnose_core). pv: the blocks' variances,
-// the weights of the means that temperature and time are taken about.
 // "f_x*time" … "w_z*time", the library's inputs times time: k (0–2) and whether it is a specific force.
 bool is_input_times_time(const std::string& name, int& k, bool& is_f) {
   if (name.size() != 8 || name.compare(3, 5, "*time") != 0 || (name[0] != 'f' && name[0] != 'w') || name[1] != '_' ||
@@ -1360,6 +1357,14 @@ std::vector<double> step_t0_grid(const std::vector<Block>& blocks) {
   return out;
 }
 
+// Per block, input k (a specific force when is_f, else a rate) from t0 on, 0 before: an input times a step. O(B).
+Eigen::VectorXd input_step(const std::vector<Block>& blocks, int k, bool is_f, double t0) {
+  Eigen::VectorXd v(static_cast<Eigen::Index>(blocks.size()));
+  for (std::size_t b = 0; b < blocks.size(); ++b)
+    v[static_cast<Eigen::Index>(b)] = blocks[b].t >= t0 ? (is_f ? blocks[b].f[k] : blocks[b].w[k]) : 0.0;
+  return v;
+}
+
 // "w_y from 1617 s on": the input of an input-times-time name, from t0 (seconds after the first block) on. Where
 // later grid times t0..t0_last give the same function (the input is zero between them: a soak at a pose that does
 // not load it), the step lies anywhere there: "f_x from between 1512 and 4136 s on".
@@ -1374,6 +1379,9 @@ std::string step_name(const std::string& times_time, double t0, double t0_last, 
   return buf;
 }
 
+// The simple functions of the logged inputs a residual signature ranks (residual_signature), by name; also what
+// the report's residual plot is drawn against when one of them leads (diagnose_core). pv: the blocks' variances,
+// the weights of the means that temperature and time are taken about.
 std::vector<SignatureFunction> signature_functions(const std::vector<Block>& blocks, const std::vector<double>& pv) {
   const char* ax = "xyz";
   std::vector<SignatureFunction> feats;
@@ -1634,10 +1642,7 @@ std::vector<SignatureEntry> residual_signature(const std::vector<Block>& blocks,
       double last_t0 = best_t0;  // the last grid time giving the same function (the input is 0 between them)
       const std::vector<char> all_ok(static_cast<std::size_t>(B), 1);
       for (const double t0 : step_t0_grid(blocks)) {
-        for (int b = 0; b < B; ++b) {
-          const Block& x = blocks[static_cast<std::size_t>(b)];
-          xv[b] = x.t >= t0 ? (is_f ? x.f[k] : x.w[k]) : 0.0;
-        }
+        xv = input_step(blocks, k, is_f, t0);
         if (project) project_off(xv);
         const double c = correlation(xv, all_ok);
         if (!std::isfinite(c)) continue;
@@ -4178,24 +4183,20 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           int k = -1;
           bool is_f = false;
           if (is_input_times_time(g_label, k, is_f)) {
-            auto input_of = [&](int b) {
-              const Block& x = blocks[static_cast<std::size_t>(b)];
-              return is_f ? x.f[k] : x.w[k];
-            };
             double best_rss = estimator::fit_subset(ne, no_e).rss, best_t0 = std::numeric_limits<double>::quiet_NaN();
             Eigen::MatrixXd rs = rows;
             for (const double t0 : step_t0_grid(blocks)) {
-              for (int b = 0; b < B; ++b) rs(b, P + 1) = blocks[static_cast<std::size_t>(b)].t >= t0 ? input_of(b) : 0.0;
-              const double gm = rs.col(P + 1).cwiseAbs().maxCoeff();
+              const Eigen::VectorXd g = input_step(blocks, k, is_f, t0);
+              const double gm = g.cwiseAbs().maxCoeff();
               if (!(gm > 0)) continue;
-              rs.col(P + 1) /= gm;
+              rs.col(P + 1) = g / gm;
               const double rss =
                   estimator::fit_subset(gls_normal_equations(gnoise[ka], blk_t, blk_dur, rs, grw[ka], &blk_seg), no_e).rss;
               if (rss < best_rss) best_rss = rss, best_t0 = t0;
             }
             if (std::isfinite(best_t0)) {
-              for (int b = 0; b < B; ++b) rows(b, P + 1) = blocks[static_cast<std::size_t>(b)].t >= best_t0 ? input_of(b) : 0.0;
-              rows.col(P + 1) /= rows.col(P + 1).cwiseAbs().maxCoeff();
+              const Eigen::VectorXd g = input_step(blocks, k, is_f, best_t0);
+              rows.col(P + 1) = g / g.cwiseAbs().maxCoeff();
               ne = gls_normal_equations(gnoise[ka], blk_t, blk_dur, rows, grw[ka], &blk_seg);
               g_label = step_name(g_label, best_t0, best_t0, blocks);
             }

@@ -529,10 +529,10 @@ PeriodicBias periodic_bias(const StochasticModel& m, const std::vector<double>& 
     }
     std::sort(peaks.begin(), peaks.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
     if (peaks.size() > 3) peaks.resize(3);
-    for (const auto& [g0, k] : peaks) {
-      const double f = freqs[static_cast<std::size_t>(k)];
+    for (const auto& peak : peaks) {
+      const double f = freqs[static_cast<std::size_t>(peak.second)];
       const int W = std::min(8, static_cast<int>(std::floor(span * f / 3.0)));
-      if (W < 2 || !(span > 0)) continue;
+      if (W < 2) continue;
       Eigen::MatrixXd wm(n, c + 2 * W);
       wm.leftCols(c) = rows;
       wm.rightCols(2 * W) = modulated_sinusoid(t_s, dur_s, 1.0 / f, W);
