@@ -622,6 +622,19 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     if kind == 'compressor':     # the chamber's compressor runs while it cools and shakes the fixture: a bias
         on = Tdot < -o['gate_C_per_s']  # oscillating with its cycle period while the die cools, none while it
         return o['amplitude'] * on * np.sin(2 * np.pi * t / o['period_s'] + o['phase_rad'])  # warms or holds
+    if kind == 'heater_on':      # the chamber's heater loads the fixture's supply while the die warms: a bias step
+        return o['amplitude'] * (Tdot > o['gate_C_per_s'])  # while it heats faster than the gate, none while it cools
+        # or holds (the catalog's temp_rate is linear and odd in the rate, abs_temp_rate's kind even in it)
+    if kind == 'glitch':         # single-sample bit errors on the bus (an SPI word with one high bit flipped): a
+        rng = np.random.default_rng(o['seed'])  # few isolated samples off by a large power of two, either sign,
+        n = int(rng.poisson(t[-1] / o['interval_s']))  # at random times; no function of the inputs and nothing
+        out = np.zeros_like(t)   # Gaussian: the samples around each are clean
+        idx = rng.integers(0, len(t), n)
+        out[idx] = o['height'] * rng.choice([-1.0, 1.0], n)
+        return out
+    if kind == 'range_switch':   # an auto-ranging gyro: past |w_j| = w_r the front end switches range and its scale
+        w = w_imu[:, j]          # differs by per_unit (a piecewise-linear scale with a jump at w_r, odd in w; the
+        return o['per_unit'] * w * (np.abs(w) > o['w_r_rad_s'])  # catalog's k2, k3 are smooth polynomials)
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -1096,8 +1109,13 @@ OOC_KINDS_UNSEEN8 = ['rate_bump', 'cable_wrap', 'knee']
 # (a misalignment step), random telegraph (burst) noise on the bias, the chamber's compressor shaking the fixture
 # while it cools (a bias oscillating with its cycle, gated on the die cooling)
 OOC_KINDS_UNSEEN9 = ['mount_slip', 'popcorn', 'compressor']
+# written at stop 61 and first run on the stop-60 binary (suite 'unseen10'): a bias while the chamber heats (its
+# heater loading the fixture's supply), isolated single-sample bit errors on the bus, an auto-ranging gyro whose
+# scale jumps past a switch-over rate
+OOC_KINDS_UNSEEN10 = ['heater_on', 'glitch', 'range_switch']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
-OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g')
+OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g',
+                 'range_switch')
 OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple', 'knee')
 
 
@@ -1183,6 +1201,14 @@ def ooc_params(ooc_kind, amp, rng, scenario):
     if ooc_kind == 'compressor':  # gated on a die cooling faster than a fifth of the chamber's slew
         return dict(amplitude=amp, period_s=float(rng.uniform(60, 200)), phase_rad=float(rng.uniform(0, 2 * np.pi)),
                     gate_C_per_s=0.2 * scenario['slew_C_per_min'] / 60.0)
+    if ooc_kind == 'heater_on':  # gated on a die warming faster than a fifth of the chamber's slew
+        return dict(amplitude=amp, gate_C_per_s=0.2 * scenario['slew_C_per_min'] / 60.0)
+    if ooc_kind == 'glitch':  # amp: a hundredth of each glitch's height (a 5 s mean holding one glitch moves by
+        return dict(height=100.0 * amp, interval_s=float(rng.uniform(20, 120)),  # a fifth of amp at 100 Hz)
+                    seed=int(rng.integers(1 << 30)))
+    if ooc_kind == 'range_switch':  # amp at the top rate, in the upper range
+        top = math.radians(max(scenario['rates_dps']))
+        return dict(per_unit=amp / top, w_r_rad_s=top * float(rng.uniform(0.3, 0.7)))
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
 
 
