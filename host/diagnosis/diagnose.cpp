@@ -7,6 +7,7 @@
 // noise_model.*, the Allan and signature statistics in stats.*, the reference-step test and lag probe in
 // step_lag.*, the rate table's axis errors in table_errors.*.
 #include "host/diagnosis/diagnose.h"
+#include "host/diagnosis/glitches.h"
 #include "host/diagnosis/step_lag.h"
 #include "host/diagnosis/table_errors.h"
 
@@ -2525,8 +2526,9 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       const double s2_ho = ha.nb > 0 ? ha.chi2 / ha.nb : s2_in;
       s2_axis[static_cast<std::size_t>(a)] = std::max(1.0, std::min(s2_in, s2_ho));
       lr += (fc.rss - fa.rss) / s2_axis[static_cast<std::size_t>(a)];
-      // The plain drop of the held-out χ² (noise variance only): a fold fit that extrapolates poorly raises
-      // it, so an effect the campaign cannot pin down never earns a gain. An axis the augmented model leaves
+      // The drop of the held-out χ², predictive (Options::heldout_gain_predictive: a fold fit's extrapolation is
+      // judged against its own uncertainty, so an effect the campaign pins down loosely in one fold earns nothing
+      // there rather than losing hundreds) or plain (noise variance only). An axis the augmented model leaves
       // unexplained (held-out χ²/dof above unexplained_chi2_dof) counts in units of that misfit: summed raw,
       // one axis far above its noise (an out-of-catalog bias at χ²/dof 10³) outweighs the sensor's other axes,
       // and a real effect whose fold fits mispredict that axis by a few per cent of its excess lost a gain of
@@ -2553,9 +2555,10 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
         exc_a = pos(hbc.chi2 - hbc.nb);
         s2_g = hba.nb > 0 ? hba.chi2 / hba.nb : 1.0;
       } else {
-        gain_a = hc.chi2 - ha.chi2;
-        exc_a = pos(hc.chi2 - hc.nb);
-        s2_g = ha.nb > 0 ? ha.chi2 / ha.nb : 1.0;
+        const double ca = o.heldout_gain_predictive ? ha.chi2_pred : ha.chi2, cc = o.heldout_gain_predictive ? hc.chi2_pred : hc.chi2;
+        gain_a = cc - ca;
+        exc_a = pos(cc - hc.nb);
+        s2_g = ha.nb > 0 ? ca / ha.nb : 1.0;
       }
       if (!o.heldout_axis_scale || !(s2_g > o.unexplained_chi2_dof)) s2_g = 1.0;
       ho_gain += gain_a / s2_g;
@@ -4655,7 +4658,8 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
 // Timing without linearisation: when a sensor's timing is selected, its reference is re-evaluated at the
 // estimated shifted time (ShiftedReference) and the whole diagnosis re-run with the timing pair kept as a
 // linear correction around the shift; repeated until the correction is below a tenth of its σ.
-DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options& opt) {
+namespace {
+DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const Options& opt) {
   TimeShift shift[2];
   DiagnosisResult first = diagnose_core(src, base, opt, shift);
   DiagnosisResult R = first;
@@ -4991,6 +4995,27 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       if (pe.name == pre + "latency_s") pe.value += shift[si].latency_s;
       if (pe.name == pre + "ppm") pe.value += shift[si].ppm;
     }
+  }
+  return R;
+}
+}  // namespace
+
+// Glitches first (glitches.h): every pass below, the timing probes included, reads the log with its isolated
+// single-sample outliers replaced; an axis that held any is named, with what the rest of its residual says.
+DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options& opt) {
+  GlitchFilterSource clean(src, opt.glitch_z);
+  DiagnosisResult R = diagnose_timed(clean, base, opt);
+  R.glitches = clean.summary();
+  for (int a = 0; a < kNumAxes; ++a) {
+    if (R.glitches[static_cast<std::size_t>(a)].count == 0) continue;
+    bool named = false;
+    for (const auto& u : R.unexplained) named = named || u.axis == axis_name(a);
+    if (named) continue;
+    Unexplained u;
+    u.axis = axis_name(a);
+    u.chi2_dof_after = R.gap_after.chi2_dof[static_cast<std::size_t>(a)];
+    u.basis = "glitches";
+    R.unexplained.push_back(u);
   }
   return R;
 }

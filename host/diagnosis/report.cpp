@@ -144,8 +144,26 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     const std::string sensor = a < 3 ? "accel" : "gyro";
     const Unexplained* ue = nullptr;
     for (const auto& x : r.unexplained)
-      if (x.axis == an) ue = &x;
+      if (x.axis == an && x.basis != "glitches") ue = &x;
     std::string line = an + ": ";
+    // Glitches lead: they are what the log shows beyond the model whatever the rest says, and the rest was judged
+    // with them replaced (glitches.h).
+    const auto& gl = r.glitches[u];
+    if (gl.count > 0) {
+      const std::string what_alone = "a bit error on the bus or in the converter", what_shared = "a knock or a corrupted frame";
+      line += "departs from the model in " + std::to_string(gl.count) + " isolated sample" + (gl.count > 1 ? "s" : "") + " (" +
+              (gl.count > 1 ? fmt("%.0f", gl.median_sigma) + " sigma (median) and up to " : std::string()) + fmt("%.0f", gl.max_sigma) +
+              " sigma off the lines through the neighbours, up to " + fmt("%.3g", gl.max_abs) + " " + unit_of(a) +
+              (gl.count > 1 ? ", between " + fmt("%.1f", gl.first_t_s) + " and " + fmt("%.1f", gl.last_t_s) + " s"
+                            : ", at " + fmt("%.1f", gl.first_t_s) + " s") +
+              "): " +
+              (gl.shared == 0           ? std::string(gl.count > 1 ? "each " : "") + "alone on this axis, " + what_alone
+               : gl.shared == gl.count ? std::string(gl.count > 1 ? "each " : "") + "at an instant where other axes jump too, " + what_shared
+                                       : std::to_string(gl.shared) + " at an instant where other axes jump too (" + what_shared + "), the rest alone (" +
+                                             what_alone + ")") +
+              ", not the sensor's physics; replaced by the line through " + (gl.count > 1 ? "their" : "its") + " neighbours before the fit; with " +
+              (gl.count > 1 ? "them" : "it") + " replaced, ";
+    }
     if (ue) {
       line += "not explained by any effect in the catalog";
       // "segment" leads only when no logged input comes within 80 % of it (residual_signature): the residual then
@@ -390,6 +408,15 @@ nlohmann::json to_json(const DiagnosisResult& r) {
     un.push_back({{"axis", x.axis}, {"chi2_dof_after", num(x.chi2_dof_after)}, {"signature", sig}, {"withdrawn", x.withdrawn}, {"basis", x.basis}});
   }
   j["unexplained"] = un;
+  nlohmann::json gl = nlohmann::json::object();
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto& g = r.glitches[static_cast<std::size_t>(a)];
+    if (g.count == 0) continue;
+    gl[axis_name(a)] = {{"count", g.count},           {"shared", g.shared},          {"rows_checked", g.rows_checked}, {"max_sigma", num(g.max_sigma)},
+                        {"median_sigma", num(g.median_sigma)}, {"max_abs", num(g.max_abs)},       {"first_t_s", num(g.first_t_s)},
+                        {"last_t_s", num(g.last_t_s)},  {"t_s", g.t_s}};
+  }
+  j["glitches"] = gl;
   if (r.mount_iterations > 0)
     j["mount_rotation"] = {{"rad", {num(r.mount_rotation_rad[0]), num(r.mount_rotation_rad[1]), num(r.mount_rotation_rad[2])}},
                            {"sigma_rad", {num(r.mount_est.sigma_rad[0]), num(r.mount_est.sigma_rad[1]), num(r.mount_est.sigma_rad[2])}},

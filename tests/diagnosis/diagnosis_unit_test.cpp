@@ -12,6 +12,7 @@
 #include <random>
 #include <set>
 
+#include "host/diagnosis/glitches.h"
 #include "host/diagnosis/noise_model.h"
 #include "host/diagnosis/sources.h"
 #include "host/model/measure.h"
@@ -826,6 +827,128 @@ TEST(DiagnosisPipeline, OneAxisFarAboveItsNoiseDoesNotHideTheOthersEffects) {
   const std::string text = summary_text(r);
   EXPECT_NE(text.find("[gyro.z] = "), std::string::npos);
   EXPECT_NE(text.find("(axis unexplained: takes part of the out-of-catalog residual there; not a finding)"), std::string::npos);
+}
+
+// A log written by hand, not by the simulator: 100 Hz, 60 s stretches of what a rate table and a bench do to a
+// sample's neighbourhood. Static dwells (white noise), a ramp (a table accelerating: slope, no curvature), kinks (the
+// rate starting and stopping), steps whose first row is caught on the way, a 0.5 Hz sine of large curvature with ten times the noise (the
+// table vibrating while it turns), an axis quantised to a count coarser than its noise, a two-sample burst and a
+// knock on every axis at once. Glitches are put on single samples of some axes, among all of these. The filter must
+// find exactly those (each, and nothing else), tell the knock's as shared, and replay each on the line through its
+// neighbours.
+TEST(DiagnosisGlitches, IsolatedSamplesAreFoundAmongRampsKinksStepsAndVibrationAndNothingElse) {
+  std::mt19937_64 rng(61);
+  std::normal_distribution<double> n01;
+  const double fs = 100.0, sigma = 1e-3;
+  const int n = 60000;  // 600 s
+  std::vector<Sample> log;
+  std::vector<std::array<double, 6>> clean;
+  for (int i = 0; i < n; ++i) {
+    const double t = i / fs;
+    Sample s = referenced_sample(t, i / 500);
+    const int part = (i / 6000) % 5;  // 60 s each: 0 static, 1 ramp with kinks, 2 steps, 3 vibrating sine, 4 static
+    double signal = 0.0, noise = sigma;
+    const double u = std::fmod(t, 60.0);
+    if (part == 1) signal = u < 10 ? 0.0 : u < 50 ? 0.02 * (u - 10) : 0.8;  // kinks at 10 s and 50 s
+    if (part == 2) {  // a step every 7 s, its first row caught 30 % of the way (the pose changing within a row)
+      signal = 0.5 * std::floor(u / 7.0);
+      if (u >= 7.0 && std::fmod(u, 7.0) < 0.5 / fs) signal -= 0.35;
+    }
+    if (part == 3) {
+      signal = 1.5 * std::sin(2.0 * M_PI * 0.5 * t);
+      noise = 10.0 * sigma;
+    }
+    std::array<double, 6> y{};
+    for (int a = 0; a < 6; ++a) y[static_cast<std::size_t>(a)] = (a == 2 ? 0.3 : 1.0) * signal + noise * n01(rng);
+    // accel.z (a = 2): an output quantised to 3 sigma with its noise beneath the count
+    y[2] = 3.0 * sigma * std::round(y[2] / (3.0 * sigma));
+    for (int a = 0; a < 6; ++a) s.y[a] = y[static_cast<std::size_t>(a)];
+    clean.push_back(y);
+    log.push_back(s);
+  }
+  // a two-sample burst on gyro.x (rows 1500, 1501) and a knock on all six axes at row 56789 (a quiet stretch): 40 sigma each
+  for (int r : {1500, 1501}) log[static_cast<std::size_t>(r)].y[3] += 40 * sigma;
+  for (int a = 0; a < 6; ++a) log[56789].y[a] += (a % 2 ? -40 : 40) * sigma * (a == 2 ? 3.0 : 1.0);
+  // glitches: row, axis, size in sigma (of a static row; the vibrating sine's are 10x larger, so 300 there)
+  const std::vector<std::tuple<int, int, double>> glitches = {
+      {700, 0, 30},     {3000, 1, -25},   {6000 + 1000, 4, 50},  {36000 + 1000, 5, 30},  // kinks at rows 7000 and 37000
+      {6000 + 5000, 0, -40}, {12000 + 704, 1, 30},  {12000 + 1405, 4, 60},  // two steps' fifth and sixth rows
+      {18000 + 1234, 3, 300}, {18000 + 3456, 0, -300}, {24000 + 100, 2, 20}, {24000 + 4000, 5, 25}};
+  for (const auto& [r, a, z] : glitches) log[static_cast<std::size_t>(r)].y[a] += z * sigma * (a == 2 ? 3.0 : 1.0);
+  VectorSource raw(log);
+  GlitchFilterSource f(raw, Options{}.glitch_z);
+  std::array<long long, 6> want{};
+  for (const auto& [r, a, z] : glitches) ++want[static_cast<std::size_t>(a)];
+  for (int a = 0; a < 6; ++a) ++want[static_cast<std::size_t>(a)];  // the knock
+  for (int a = 0; a < 6; ++a) {
+    EXPECT_EQ(f.summary()[static_cast<std::size_t>(a)].count, want[static_cast<std::size_t>(a)]) << axis_name(a);
+    EXPECT_EQ(f.summary()[static_cast<std::size_t>(a)].shared, 1) << axis_name(a) << ": the knock, and only it, is shared";
+  }
+  // The replayed log: each glitch (and the knock) replaced on the line through its neighbours, within that line's noise;
+  // every other row as it was.
+  f.rewind();
+  Sample s;
+  std::size_t i = 0;
+  std::set<std::pair<std::size_t, int>> hit;
+  for (const auto& [r, a, z] : glitches) hit.insert({static_cast<std::size_t>(r), a});
+  for (int a = 0; a < 6; ++a) hit.insert({56789, a});
+  while (f.next(s)) {
+    for (int a = 0; a < 6; ++a) {
+      if (hit.count({i, a})) {
+        const double tol = 10.0 * sigma * (a == 2 ? 3.0 : 1.0) * ((i / 6000) % 5 == 3 ? 10.0 : 1.0);
+        EXPECT_NEAR(s.y[a], clean[i][static_cast<std::size_t>(a)], tol) << "row " << i << " " << axis_name(a);
+      } else {
+        EXPECT_EQ(s.y[a], log[i].y[a]) << "row " << i << " " << axis_name(a) << " must replay untouched";
+      }
+    }
+    ++i;
+  }
+  EXPECT_EQ(i, log.size());
+  // Off: the log replays as it is.
+  GlitchFilterSource off(raw, 0.0);
+  EXPECT_EQ(off.total(), 0);
+}
+
+// The same glitches in a diagnosis: static tilts with white noise, and single samples of accel.y set 60 sigma off
+// about once every 20 s. The axis is named for them (basis "glitches"), nothing is selected, and the fit is the
+// clean log's: the bias and the white noise the glitches would have pulled and inflated come out as without them.
+TEST(DiagnosisPipeline, GlitchesNameTheirAxisAndLeaveTheFitAsTheCleanLogs) {
+  std::vector<Sample> clean_log;
+  {
+    std::mt19937_64 rng(62);
+    clean_log = static_pose_log(two_axis_tilts(), 3, 8.0, [&](int, const Pose& f, double* y) {
+      Sample s;
+      white_static_outputs(s, f, 2e-3, 5e-4, rng);
+      for (int a = 0; a < 6; ++a) y[a] = s.y[a];
+    });
+  }
+  std::vector<Sample> glitched = clean_log;
+  int injected = 0;
+  for (std::size_t i = 1000; i + 3 < glitched.size(); i += 1999, ++injected) glitched[i].y[1] += (injected % 2 ? -60.0 : 60.0) * 2e-3;
+  VectorSource a_src(clean_log), b_src(glitched);
+  const Options o;
+  const DiagnosisResult clean = diagnose(a_src, basic_model(), o);
+  const DiagnosisResult r = diagnose(b_src, basic_model(), o);
+  EXPECT_EQ(clean.glitches[1].count, 0);
+  EXPECT_TRUE(clean.unexplained.empty());
+  EXPECT_EQ(r.glitches[1].count, injected);
+  EXPECT_EQ(r.glitches[1].shared, 0);
+  for (int a = 0; a < 6; ++a)
+    if (a != 1) EXPECT_EQ(r.glitches[static_cast<std::size_t>(a)].count, 0) << axis_name(a);
+  ASSERT_EQ(r.unexplained.size(), 1u);
+  EXPECT_EQ(r.unexplained[0].axis, "accel.y");
+  EXPECT_EQ(r.unexplained[0].basis, "glitches");
+  EXPECT_TRUE(r.selected.empty());
+  EXPECT_NEAR(r.stoch[1].N, clean.stoch[1].N, 1e-3 * clean.stoch[1].N) << "the white noise is the clean log's";
+  const auto lines = verdict_lines(r);
+  ASSERT_GE(lines.size(), 2u);
+  EXPECT_NE(lines[1].find("departs from the model in " + std::to_string(injected) + " isolated samples"), std::string::npos) << lines[1];
+  // Without the filter the glitches inflate the white noise the verdict reports.
+  Options off = o;
+  off.glitch_z = 0;
+  VectorSource c_src(glitched);
+  const DiagnosisResult raw = diagnose(c_src, basic_model(), off);
+  EXPECT_GT(raw.stoch[1].N, 1.05 * clean.stoch[1].N);
 }
 
 TEST(DiagnosisPipeline, PeriodicBiasBelowTheHeldOutThresholdIsStillNamed) {
