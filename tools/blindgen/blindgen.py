@@ -635,6 +635,16 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     if kind == 'range_switch':   # an auto-ranging gyro: past |w_j| = w_r the front end switches range and its scale
         w = w_imu[:, j]          # differs by per_unit (a piecewise-linear scale with a jump at w_r, odd in w; the
         return o['per_unit'] * w * (np.abs(w) > o['w_r_rad_s'])  # catalog's k2, k3 are smooth polynomials)
+    if kind == 'inl_periodic':   # the converter's integral nonlinearity, periodic in the output code (a segmented or
+        u = f_imu if o['sensor'] == 'accel' else w_imu  # sigma-delta DAC whose segments mismatch): a bias sinusoidal in
+        return o['amplitude'] * np.sin(2 * np.pi * u[:, j] / o['period'] + o['phase_rad'])  # the axis' own input, a
+        # few periods over the range; the catalog's k2, k3 and asymmetry are one smooth bend
+    if kind == 'temp_saw':       # the die's temperature read through a coarse sensor (a step of q C) by the part's own
+        x = T / o['q_C']         # compensation: the bias it corrects follows the staircase, and what is left is a
+        return o['amplitude'] * 2.0 * (x - np.round(x))  # sawtooth in T of q's period (no polynomial in T has it)
+    if kind == 'axis_skew':      # one axis sampled tau after the others (a multiplexed converter): its output is its
+        u = f_imu if o['sensor'] == 'accel' else w_imu  # input at t - tau. The catalog's latency is one per triad, and
+        return np.interp(t - o['tau_s'], t, u[:, j]) - u[:, j]  # is absent here on the other two axes
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -1113,6 +1123,10 @@ OOC_KINDS_UNSEEN9 = ['mount_slip', 'popcorn', 'compressor']
 # heater loading the fixture's supply), isolated single-sample bit errors on the bus, an auto-ranging gyro whose
 # scale jumps past a switch-over rate
 OOC_KINDS_UNSEEN10 = ['heater_on', 'glitch', 'range_switch']
+# written at stop 62 and first run on the stop-61 binary (suite 'unseen11'): the converter's integral nonlinearity
+# periodic in the output code, a bias sawtooth in the die temperature (a coarse temperature sensor feeding the part's
+# own compensation), one axis sampled later than the other two (a multiplexed converter)
+OOC_KINDS_UNSEEN11 = ['inl_periodic', 'temp_saw', 'axis_skew']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g',
                  'range_switch')
@@ -1209,6 +1223,13 @@ def ooc_params(ooc_kind, amp, rng, scenario):
     if ooc_kind == 'range_switch':  # amp at the top rate, in the upper range
         top = math.radians(max(scenario['rates_dps']))
         return dict(per_unit=amp / top, w_r_rad_s=top * float(rng.uniform(0.3, 0.7)))
+    if ooc_kind == 'inl_periodic':  # amp at the sine's crest; 1.5-4 periods over the axis' largest input
+        return dict(amplitude=amp, period=None, _cycles=float(rng.uniform(1.5, 4.0)),
+                    _top_rate=math.radians(max(scenario['rates_dps'])), phase_rad=float(rng.uniform(0, 2 * np.pi)))
+    if ooc_kind == 'temp_saw':  # amp at the sawtooth's edge (half a step of the sensor times the axis' coefficient)
+        return dict(amplitude=amp, q_C=float(rng.uniform(0.5, 2.0)))
+    if ooc_kind == 'axis_skew':  # amp: the error at the sines' largest rate of change (3.4 rad/s^2 for the gyro, the
+        return dict(tau_s=None, amplitude=amp)  # gravity turning at 1.1 rad/s, 10.8 m/s^3, for the accel)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
 
 
@@ -1223,6 +1244,13 @@ def ooc_fill_axis(o, rng):
         top = o.pop('_top_rate')
         o['theta_rad'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
         o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
+    if o['kind'] == 'inl_periodic':
+        top = o.pop('_top_rate')
+        o['period'] = (9.80665 if o['sensor'] == 'accel' else top) / o.pop('_cycles')
+    if o['kind'] == 'axis_skew':  # sign of amp: late (+) or early (-); 0.2-8 ms, within a 100 Hz sample
+        rate = 9.80665 * math.radians(20) * math.pi if o['sensor'] == 'accel' else math.radians(20) * math.pi ** 2
+        a = o.pop('amplitude')
+        o['tau_s'] = math.copysign(min(max(abs(a) / rate, 2e-4), 8e-3), a)
     if o['kind'] == 'scale_bump':
         top = o.pop('_top_rate')
         o['per_unit'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
