@@ -608,6 +608,11 @@ void fill_input_memory(std::vector<Block>& blocks) {
 
 constexpr double kSettleTaus_s[3] = {3.0, 10.0, 30.0};
 
+// A static run's temperature moving or holding (TempMotionNoise): 1 °C/min and more is a chamber ramping, 0.5 °C/min
+// and less a soak or a die settling slowly on a plateau (the blind generator's dies still move 0.3–0.5 °C/min there,
+// and hold nowhere closer); between, neither.
+constexpr double kTempMovingRate_C_s = 1.0 / 60.0, kTempHoldingRate_C_s = 0.5 / 60.0;
+
 // Block::settle. A rotation ends at the last moving block's end; a pose change halfway across the gap between two
 // static blocks at different poses. Exact for a block wholly after the end: the mean of e^{−s/τ} over [s0, s1] is
 // τ (e^{−s0/τ} − e^{−s1/τ}) / (s1 − s0). O(blocks).
@@ -640,11 +645,47 @@ void fill_motion_settling(std::vector<Block>& blocks) {
 struct Pass1 {
   std::vector<Block> blocks;
   std::array<AllanAccumulator, kNumAxes> allan;
+  // The same records split by what the die's temperature does over the run (TempMotionNoise): moving (at least
+  // kTempMovingRate_C_s) or holding (at most kTempHoldingRate_C_s); runs between are in neither.
+  std::array<AllanAccumulator, kNumAxes> allan_moving, allan_holding;
   std::array<double, kNumAxes> dz2{};
   long long ndz = 0;
   long long n_used = 0;
   int n_units = 0;
 };
+
+// The static dwells' scatter while the die's temperature moves against while it holds (TempMotionNoise, diagnose.h):
+// at each τ both records reach, the ratio of the Allan variances and its z on the log scale (ln ratio has variance
+// 2/edf per estimate); the τ with the largest z among those where the ratio is at least opt.temp_motion_ratio.
+TempMotionNoise compare_temp_motion(const std::vector<AllanAccumulator::Point>& moving, const std::vector<AllanAccumulator::Point>& holding,
+                                    const Options& opt) {
+  TempMotionNoise out;
+  // Record lengths: the first point's differences, one per bin of τ0 less two per record.
+  if (!moving.empty()) out.moving_s = moving.front().tau_s * static_cast<double>(moving.front().terms);
+  if (!holding.empty()) out.holding_s = holding.front().tau_s * static_cast<double>(holding.front().terms);
+  for (const auto& m : moving) {
+    for (const auto& h : holding) {
+      if (h.tau_s != m.tau_s || !(h.avar > 0) || !(m.avar > 0)) continue;
+      const double ratio = m.avar / h.avar;
+      const double z = std::log(ratio) / std::sqrt(2.0 / m.edf + 2.0 / h.edf);
+      if (std::getenv("IMUFORGE_DIAG_TRACE"))
+        std::fprintf(stderr, "temp motion tau %.3g: avar moving %.3g (edf %.0f) holding %.3g (edf %.0f): ratio %.2f z %.1f\n", m.tau_s, m.avar, m.edf,
+                     h.avar, h.edf, ratio, z);
+      // The largest ratio among the τ whose z passes (flagged where it reaches the ratio's bar; reported either way).
+      if (!(opt.temp_motion_z > 0 && z >= opt.temp_motion_z)) continue;
+      if (ratio > out.ratio) {
+        const bool pass = ratio >= opt.temp_motion_ratio;
+        out.flagged = pass;
+        out.z = z;
+        out.ratio = ratio;
+        out.tau_s = m.tau_s;
+        out.edf_moving = m.edf;
+        out.edf_holding = h.edf;
+      }
+    }
+  }
+  return out;
+}
 
 Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const std::vector<ParamId> ids[2],
                 bool want_regressors, const TimeShift shift[2] = nullptr) {
@@ -674,6 +715,8 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   const long long max_bins = 1LL << 20;
   const long m0 = std::max<long long>(1, (p0.n + max_bins - 1) / max_bins);
   for (auto& a : out.allan) a.set_tau0(static_cast<double>(m0) / p0.fs);
+  for (auto& a : out.allan_moving) a.set_tau0(static_cast<double>(m0) / p0.fs);
+  for (auto& a : out.allan_holding) a.set_tau0(static_cast<double>(m0) / p0.fs);
   const int np[2] = {static_cast<int>(ids[0].size()), static_cast<int>(ids[1].size())};
   const model::RegressorPlan plan[2] = {model::RegressorPlan(Sensor::kAccel, ids[0]), model::RegressorPlan(Sensor::kGyro, ids[1])};
 
@@ -754,6 +797,22 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
     }
     if (have_T) tm /= static_cast<double>(nb);
     const bool use_T = have_T && tmax - tmin > 0.05 && nb > 8;
+    // What the temperature does over the run: the slope of a line through its bins (the smoothed logged value
+    // flickers by its sensor's noise; a range would read that as motion on a long soak).
+    int motion = 0;  // +1 moving, −1 holding, 0 neither (or no temperature)
+    if (have_T && nb > 8) {
+      double sx = 0, sy = 0, sxx = 0, sxy = 0;
+      for (std::size_t i = 0; i < nb; ++i) {
+        const double x = static_cast<double>(i);
+        sx += x, sy += run_T[i], sxx += x * x, sxy += x * run_T[i];
+      }
+      const double nn = static_cast<double>(nb), den = nn * sxx - sx * sx;
+      const double rate_C_s = den > 0 ? std::fabs((nn * sxy - sx * sy) / den) * p0.fs / static_cast<double>(m0) : 0.0;
+      motion = rate_C_s >= kTempMovingRate_C_s ? 1 : rate_C_s <= kTempHoldingRate_C_s ? -1 : 0;
+      if (std::getenv("IMUFORGE_DIAG_TRACE"))
+        std::fprintf(stderr, "allan run: %zu bins, T %.2f..%.2f, %.3g C/min: %s\n", nb, tmin, tmax, 60.0 * rate_C_s,
+                     motion > 0 ? "moving" : motion < 0 ? "holding" : "neither");
+    }
     // One candidate step: the run's design [1, (T − tm, (T − tm)²), d], the same for every axis, so its
     // factorisation and the change positions of d are built once per run. d: a hysteresis state per bin, or
     // (col −1) a level step at one bin.
@@ -946,7 +1005,9 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         std::size_t b0 = lo;
         for (std::size_t i = lo + 1; i <= hi; ++i)
           if (i == hi || (cut && cut->d[i] != cut->d[i - 1])) {
-            out.allan[static_cast<std::size_t>(a)].add_series(std::vector<double>(rs.begin() + static_cast<long>(b0), rs.begin() + static_cast<long>(i)));
+            const std::vector<double> piece(rs.begin() + static_cast<long>(b0), rs.begin() + static_cast<long>(i));
+            out.allan[static_cast<std::size_t>(a)].add_series(piece);
+            if (motion != 0) (motion > 0 ? out.allan_moving : out.allan_holding)[static_cast<std::size_t>(a)].add_series(piece);
             b0 = i;
           }
       }
@@ -1842,6 +1903,9 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       R.noise[ua].terms.N = std::sqrt(var / p0.fs);
     }
   }
+  for (int a = 0; a < kNumAxes; ++a)
+    R.temp_motion[static_cast<std::size_t>(a)] = compare_temp_motion(p1.allan_moving[static_cast<std::size_t>(a)].points(),
+                                                                      p1.allan_holding[static_cast<std::size_t>(a)].points(), o);
   bool any_static = false;
   for (int a = 0; a < kNumAxes; ++a) any_static |= R.allan[static_cast<std::size_t>(a)].size() >= 2;
   if (!any_static)
@@ -5000,22 +5064,119 @@ DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const O
 }
 }  // namespace
 
-// Glitches first (glitches.h): every pass below, the timing probes included, reads the log with its isolated
-// single-sample outliers replaced; an axis that held any is named, with what the rest of its residual says.
+// AxisTiming (diagnose.h): the per-axis latencies of each selected timing (not one read off the reference steps,
+// which is one line per sensor). Fills r.axis_timing; returns, per sensor, whether the triad's timing should be
+// withdrawn (an odd axis, and the other two within 3σ of zero).
+std::array<bool, 2> check_axis_timing(DiagnosisResult& r, const Options& opt) {
+  std::array<bool, 2> withdraw{false, false};
+  if (!(opt.axis_timing_z > 0)) return withdraw;
+  for (int si = 0; si < 2; ++si) {
+    const std::string sn = model::sensor_name(static_cast<Sensor>(si));
+    bool selected = false;
+    for (const auto& st : r.selected) selected = selected || (st.sensor == sn && st.effect == "timing" && !st.from_reference_steps);
+    if (!selected) continue;
+    double v[3], sg[3];
+    int n = 0;
+    for (int j = 0; j < 3; ++j) {
+      const std::string an = axis_name(3 * si + j);
+      for (const auto& pe : r.final_params)
+        if (pe.axis == an && pe.name == sn + ".timing.latency_s" && pe.sigma > 0) {
+          v[j] = pe.value;
+          sg[j] = pe.sigma;
+          ++n;
+        }
+    }
+    if (n != 3) continue;
+    double sw = 0, swv = 0;
+    for (int j = 0; j < 3; ++j) sw += 1.0 / (sg[j] * sg[j]), swv += v[j] / (sg[j] * sg[j]);
+    const double mean = swv / sw;
+    double chi2 = 0;
+    for (int j = 0; j < 3; ++j) chi2 += (v[j] - mean) * (v[j] - mean) / (sg[j] * sg[j]);
+    const double log10p = -chi2_log10_sf(chi2, 2.0);
+    if (std::getenv("IMUFORGE_DIAG_TRACE"))
+      std::fprintf(stderr, "axis timing %s: %.4g+-%.2g %.4g+-%.2g %.4g+-%.2g ms: chi2 %.1f (2 dof, -log10 p %.1f)\n", sn.c_str(), 1e3 * v[0],
+                   1e3 * sg[0], 1e3 * v[1], 1e3 * sg[1], 1e3 * v[2], 1e3 * sg[2], chi2, log10p);
+    if (log10p < opt.axis_timing_log10p) continue;
+    bool any_odd = false, others_zero = true;
+    for (int j = 0; j < 3; ++j) {
+      double w = 0, wv = 0;
+      for (int k = 0; k < 3; ++k)
+        if (k != j) w += 1.0 / (sg[k] * sg[k]), wv += v[k] / (sg[k] * sg[k]);
+      AxisTiming& at = r.axis_timing[static_cast<std::size_t>(3 * si + j)];
+      at.latency_s = v[j];
+      at.sigma_s = sg[j];
+      at.others_s = wv / w;
+      at.others_sigma_s = std::sqrt(1.0 / w);
+      // Odd: apart from the other two, which agree with each other (where all three disagree, none is the odd one).
+      const int k = (j + 1) % 3, l = (j + 2) % 3;
+      at.odd = std::fabs(v[j] - at.others_s) > opt.axis_timing_z * std::hypot(sg[j], at.others_sigma_s) &&
+               std::fabs(v[k] - v[l]) <= opt.axis_timing_z * std::hypot(sg[k], sg[l]);
+    }
+    for (int j = 0; j < 3; ++j) {
+      const AxisTiming& at = r.axis_timing[static_cast<std::size_t>(3 * si + j)];
+      if (!at.odd) continue;
+      any_odd = true;
+      if (std::fabs(at.others_s) > 3.0 * at.others_sigma_s) others_zero = false;
+    }
+    withdraw[static_cast<std::size_t>(si)] = any_odd && others_zero;
+  }
+  return withdraw;
+}
+
+// Glitches first (glitches.h): every pass, the timing probes included, reads the log with its isolated single-sample
+// outliers replaced. The filter searches while pass 0 (the first to read) streams the log through it, with a
+// look-ahead of about a thousand rows, and replays its fixes on every later pass; an axis that held any is named,
+// with what the rest of its residual says.
 DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options& opt) {
   GlitchFilterSource clean(src, opt.glitch_z);
   DiagnosisResult R = diagnose_timed(clean, base, opt);
+  // A timing one axis alone carries (AxisTiming): without the triad's timing where the other two show none.
+  std::array<bool, 2> withdraw = check_axis_timing(R, opt);
+  if (withdraw[0] || withdraw[1]) {
+    Options o = opt;
+    if (o.candidates.empty())
+      for (const auto& e : model::effects()) {
+        if (e.kind != model::EffectKind::kDeterministic) continue;
+        for (Sensor s : {Sensor::kAccel, Sensor::kGyro})
+          if (e.sensors & (s == Sensor::kAccel ? model::kMaskAccel : model::kMaskGyro)) o.candidates.push_back({s, e.effect});
+      }
+    o.candidates.erase(std::remove_if(o.candidates.begin(), o.candidates.end(),
+                                      [&](const std::pair<Sensor, Effect>& c) {
+                                        return c.second == Effect::kTiming && withdraw[static_cast<std::size_t>(c.first)];
+                                      }),
+                       o.candidates.end());
+    const std::array<AxisTiming, kNumAxes> seen = R.axis_timing;
+    R = diagnose_timed(clean, base, o);
+    R.axis_timing = seen;
+    for (int a = 0; a < kNumAxes; ++a) R.axis_timing[static_cast<std::size_t>(a)].triad_withdrawn = withdraw[static_cast<std::size_t>(a / 3)];
+    char buf[200];
+    for (int si = 0; si < 2; ++si)
+      if (withdraw[static_cast<std::size_t>(si)]) {
+        std::snprintf(buf, sizeof buf, "%s: the timing selected was one axis' latency alone (the other two show none): withdrawn, and the axis named",
+                      model::sensor_name(static_cast<Sensor>(si)));
+        R.warnings.push_back(buf);
+      }
+  }
   R.glitches = clean.summary();
-  for (int a = 0; a < kNumAxes; ++a) {
-    if (R.glitches[static_cast<std::size_t>(a)].count == 0) continue;
-    bool named = false;
-    for (const auto& u : R.unexplained) named = named || u.axis == axis_name(a);
-    if (named) continue;
+  // An axis named on a basis of its own; take_over: the basis replaces the one that named it already (the held-out
+  // χ² or the whole log's structure: what the axis' own latency explains).
+  auto name_axis = [&R](int a, const char* basis, bool take_over) {
+    for (auto& u : R.unexplained)
+      if (u.axis == axis_name(a)) {
+        if (take_over) u.basis = basis;
+        return;
+      }
     Unexplained u;
     u.axis = axis_name(a);
     u.chi2_dof_after = R.gap_after.chi2_dof[static_cast<std::size_t>(a)];
-    u.basis = "glitches";
+    u.basis = basis;
     R.unexplained.push_back(u);
+  };
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto ua = static_cast<std::size_t>(a);
+    if (R.axis_timing[ua].odd) name_axis(a, "axis_timing", true);
+    if (R.temp_motion[ua].flagged) name_axis(a, "temp_motion", false);  // colored "noise" only while T moves
+    if (R.glitches[ua].count > 0) name_axis(a, "glitches", false);
   }
   return R;
 }

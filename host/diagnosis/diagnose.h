@@ -250,6 +250,17 @@ struct Options {
   // on the nearest line through their neighbours before anything else reads the log, and name their axis
   // (Unexplained basis "glitches"). 12: below 10⁻³⁰ false alarms per row under Gaussian noise. 0 turns it off.
   double glitch_z = 12.0;
+  // An axis whose static dwells scatter at least temp_motion_ratio times more (Allan variance) while the die's
+  // temperature moves than while it holds, at z ≥ temp_motion_z on the log scale, is named (TempMotionNoise,
+  // Unexplained basis "temp_motion"). The edf behind z is the white-noise one, larger than a colored record's,
+  // so the ratio carries the weight: 9 is an Allan deviation three times larger. temp_motion_z 0 turns it off.
+  double temp_motion_ratio = 9.0;
+  double temp_motion_z = 6.0;
+  // A selected timing whose per-axis latencies disagree (AxisTiming): the three inconsistent with one value at
+  // −log10 p ≥ axis_timing_log10p (χ² on 2 dof), and the odd axis more than axis_timing_z joint σ from the other
+  // two's mean. axis_timing_z 0 turns it off.
+  double axis_timing_log10p = 8.0;
+  double axis_timing_z = 6.0;
   // Nor is a raise whose innovations' spread grows with the inputs (noise_model.h, WholeLogWander::hetero_*: the
   // rotation speed and the axis' own input magnitude, Koenker–Breusch–Pagan): a bias wander adds the same variance
   // whatever the table does. Refused when the test's p is below wander_max_hetero_p, the variance where the fit puts
@@ -369,7 +380,9 @@ struct Unexplained {
   std::vector<std::string> withdrawn;     // effects withdrawn because they left this gap in place
   // What names it: "heldout_chi2" (chi2_dof_after > unexplained_chi2_dof), "wander" (within it, but the
   // whole log's residual is no stationary wander: Options::wander_unexplained_*) or "glitches" (neither, but the
-  // axis held isolated single-sample outliers, replaced before the fit: DiagnosisResult::glitches).
+  // axis held isolated single-sample outliers, replaced before the fit: DiagnosisResult::glitches) or
+  // "temp_motion" (its static dwells scatter far more while the temperature moves: DiagnosisResult::temp_motion)
+  // or "axis_timing" (a latency of its own, apart from the other two axes': DiagnosisResult::axis_timing).
   std::string basis = "heldout_chi2";
 };
 
@@ -385,6 +398,38 @@ struct GlitchSummary {
   double first_t_s = 0, last_t_s = 0;
   std::vector<double> t_s;    // the first kListed glitches' times (s)
   static constexpr std::size_t kListed = 20;
+};
+
+// The static dwells' scatter while the die's temperature moves against while it holds, per axis. A sensor's noise
+// does not know what the chamber does: bias instability, flicker and random walk are the same on a ramp as on a
+// soak. A scatter that appears only while the temperature moves is a function of the temperature or of the
+// chamber's action that no catalog effect has (a bias sawtooth in T from a coarse temperature sensor feeding the
+// part's own compensation, a compressor shaking the fixture while it cools), which the dwells' noise model would
+// otherwise take in as bias instability and so hide from every held-out χ². Runs are classed by the slope of their
+// temperature (≥ 1 °C/min moving, ≤ 0.5 °C/min holding), after the run's own T trend and hysteresis steps are
+// taken out (the catalog's thermal terms).
+struct TempMotionNoise {
+  bool flagged = false;       // ratio ≥ Options::temp_motion_ratio at z ≥ Options::temp_motion_z
+  double ratio = 0;           // Allan variance moving / holding at tau_s: the largest among the τ at z ≥ temp_motion_z
+                              // (0 when none), flagged or not
+  double tau_s = 0;
+  double z = 0;               // ln(ratio) / √(2/edf_moving + 2/edf_holding)
+  double edf_moving = 0, edf_holding = 0;
+  double moving_s = 0, holding_s = 0;  // record lengths behind the compared points (s)
+};
+
+// A sensor's timing read axis by axis. The catalog's timing is one latency (and one clock) per triad: the three
+// axes are sampled at one instant. The diagnosis fits each axis on its own, so a selected timing has a latency per
+// axis; when one axis' departs from the other two's (which agree with each other) by more than Options::axis_timing_z
+// of their joint σ (and the
+// three together are inconsistent at −log10 p ≥ Options::axis_timing_log10p), that axis is sampled at an instant of
+// its own (a multiplexed converter), which no catalog effect has. Where the other two show no latency of their own
+// (within 3σ of zero) the triad's timing is withdrawn and the diagnosis runs again without it; else it is kept.
+struct AxisTiming {
+  bool odd = false;                         // this axis' latency departs from the other two's
+  double latency_s = 0, sigma_s = 0;        // this axis' latency, as the final fit read it
+  double others_s = 0, others_sigma_s = 0;  // the other two axes' weighted mean
+  bool triad_withdrawn = false;             // the sensor's timing was withdrawn for it
 };
 
 struct DiagnosisResult {
@@ -455,6 +500,8 @@ struct DiagnosisResult {
   };
   std::array<Wander, kNumAxes> wander{};
   std::array<GlitchSummary, kNumAxes> glitches{};
+  std::array<TempMotionNoise, kNumAxes> temp_motion{};
+  std::array<AxisTiming, kNumAxes> axis_timing{};
   std::array<double, kNumAxes> claimed_N{};
   std::array<std::vector<AllanAccumulator::Point>, kNumAxes> sim_allan;
   // Results

@@ -30,8 +30,16 @@
 // and the four lines keep out (the five recordings of docs/real-data.md: one, a knock within a static pose that
 // jumps all six outputs for a sample).
 //
-// Cost: one streaming pass at construction, O(kStretchRows) per stretch and O(kLocalRows) per candidate for the
-// medians (nth_element), memory O(kStretchRows) plus one entry per glitch; then O(1) per replayed row.
+// Streaming: the filter finds glitches while it hands the log on, on the first pass its consumer makes (the
+// diagnosis's pass 0), so it costs no read of its own. A row is handed on once every axis has judged it: rows wait
+// in a look-ahead of about a stretch (kStretchRows + kLocalRows/2 rows with a reference), more where an axis' rows
+// with a reference are sparse (a hand-held log's moving rows carry none). Past max_buffered_rows rows waiting, each
+// axis judges the rows it holds at once, as at the log's end (so memory stays bounded on any log). Once a pass has
+// reached the end, every later pass replays the fixes it found. A rewind before the end starts the search again.
+//
+// Cost: O(1) per row and axis for the four lines, O(kStretchRows) per stretch for its median (nth_element) and
+// O(kLocalRows) per candidate; memory: the look-ahead (≤ max_buffered_rows samples) plus one entry per glitch; a
+// replayed pass is O(1) per row.
 #pragma once
 
 #include <array>
@@ -46,21 +54,73 @@ class GlitchFilterSource : public SampleSource {
  public:
   static constexpr int kStretchRows = 1000;
   static constexpr long long kLocalRows = 51;
-  // Reads inner once. z_threshold ≤ 0 turns the filter off (the log replays as it is).
-  GlitchFilterSource(SampleSource& inner, double z_threshold);
+  static constexpr std::size_t kMaxBufferedRows = 1u << 17;  // 131072 samples waiting (≈ 20 MB)
+  // Reads nothing until the first next(). z_threshold ≤ 0 turns the filter off (the log replays as it is).
+  GlitchFilterSource(SampleSource& inner, double z_threshold, std::size_t max_buffered_rows = kMaxBufferedRows);
   void rewind() override;
   bool next(Sample& s) override;
-  const std::array<GlitchSummary, kNumAxes>& summary() const { return summary_; }
-  long long total() const;
+  // What was found. Complete once a pass has reached the end; called before that, it reads the rest of the pass
+  // (or a whole pass, if none has started) first.
+  const std::array<GlitchSummary, kNumAxes>& summary();
+  long long total();
 
  private:
+  struct Row {
+    long long row = 0;
+    bool has_ref = false;
+    double t_s = 0;
+    double y[kNumAxes] = {};
+  };
+  // One centre row of a stretch: its residual against the four lines and its direct neighbours', and its fix.
+  struct Entry {
+    long long row;
+    double t_s, d, e_prev, e_next, fix;
+    double r1;  // against its direct neighbours alone: what σ is measured on (√1.5 σ under white noise; |d| ≤ |r1|)
+  };
   struct Fix {
     long long row;
     int axis;
     double value;
   };
+  static constexpr int kRing = 7;
+
+  void reset_search();
+  void scan(const Sample& s);        // one row read from inner: into the ring and each axis' stretch
+  void judge(int a, bool all);       // judge axis a's stretch (all: every row it holds, as at the end)
+  void finish_search();              // at the end of the first pass: the rest, sorted fixes, shared, medians
+  long long ready_before() const;    // rows below this are judged on every axis
+
   SampleSource& inner_;
-  std::vector<Fix> fixes_;  // ascending in (row, axis)
+  double z_;
+  std::size_t max_buffered_;
+  bool off_ = false;
+  bool searched_ = false;  // a pass reached the end: fixes_ and summary_ are complete, later passes replay
+  // The search (first pass).
+  Row ring_[kRing];
+  int ring_head_ = 0, filled_ = 0;
+  long long rows_read_ = 0;
+  std::array<std::vector<Entry>, kNumAxes> stretch_;
+  std::array<long long, kNumAxes> first_new_{};  // entries before this index were judged already
+  std::array<double, kNumAxes> quantum_{};      // smallest non-zero step between neighbouring rows in the stretch
+  std::array<double, kNumAxes> last_sigma_{};   // the previous stretch's σ, for a last stretch too short for its own
+  std::array<std::vector<double>, kNumAxes> sizes_;  // every glitch's size in σ (for the median)
+  std::vector<double> scratch_;
+  // Read from inner, not yet handed on: a ring of ahead_n_ samples from ahead_head_, the first being row emitted_
+  // (a ring, not a deque: a sample is larger than a deque block holds a few of, and the pass allocates nothing per
+  // row once the ring has grown to the look-ahead).
+  std::vector<Sample> ahead_;
+  std::size_t ahead_head_ = 0, ahead_n_ = 0;
+  Sample& ahead_at(std::size_t i) { return ahead_[(ahead_head_ + i) % ahead_.size()]; }
+  void ahead_push(const Sample& s);
+  // Each axis' last residuals (residual() of glitches.cpp) by their centre row: consecutive windows share two of
+  // the three each needs, so one is computed per row and axis.
+  std::array<long long, kNumAxes> res_row_{{-1, -1, -1, -1, -1, -1}};  // centre row of res_[a][2]; −1 none
+  std::array<std::array<double, 3>, kNumAxes> res_{};  // centres res_row_ − 2, − 1, res_row_
+  long long emitted_ = 0;
+  bool inner_done_ = false;
+  bool trace_ = false;
+  // The result, and the replay.
+  std::vector<Fix> fixes_;  // ascending in (row, axis) once searched_
   std::array<GlitchSummary, kNumAxes> summary_{};
   long long row_ = 0;
   std::size_t next_fix_ = 0;

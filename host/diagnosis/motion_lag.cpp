@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "host/diagnosis/step_lag.h"
+#include "host/estimator/robust.h"
 
 namespace imuforge::diagnosis {
 
@@ -216,8 +217,7 @@ std::array<StepLag, 2> probe_motion_lag(SampleSource& src, double fs, double dur
           a.push_back(std::fabs(e));
           ss += e * e;
         }
-      std::nth_element(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2), a.end());
-      const double next_cut = std::max(tol, 3.0 * 1.4826 * a[a.size() / 2]);
+      const double next_cut = std::max(tol, 3.0 * estimator::robust_sigma_of_magnitudes(a));
       if (next_cut == cut && iter > 0) break;
       cut = next_cut;
     }

@@ -164,7 +164,22 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
               ", not the sensor's physics; replaced by the line through " + (gl.count > 1 ? "their" : "its") + " neighbours before the fit; with " +
               (gl.count > 1 ? "them" : "it") + " replaced, ";
     }
-    if (ue) {
+    if (ue && ue->basis == "temp_motion") {
+      const auto& m = r.temp_motion[u];
+      line += "not explained by any effect in the catalog, nor by the sensor's noise: its static dwells scatter " +
+              fmt("%.2g", std::sqrt(m.ratio)) + "x more (Allan deviation at " + fmt("%.3g", m.tau_s) +
+              " s, z " + fmt("%.0f", m.z) + ") while the die's temperature moves than while it holds, which no noise of the " +
+              "sensor does: a function of the temperature or of the chamber's action that no catalog effect has (held-out chi2/dof " +
+              fmt("%.3g", ue->chi2_dof_after) + ", within the threshold: the dwells' noise model took it in as bias instability)";
+    } else if (ue && ue->basis == "axis_timing") {
+      const auto& at = r.axis_timing[u];
+      const double d_ms = 1e3 * (at.latency_s - at.others_s);
+      line += "not explained by any effect in the catalog: its output is " + fmt("%.3g", std::fabs(d_ms)) + " ms " + (d_ms >= 0 ? "later" : "earlier") +
+              " than the other two axes' (" + fmt("%.3g", 1e3 * at.latency_s) + " +- " + fmt("%.2g", 1e3 * at.sigma_s) + " ms against " +
+              fmt("%.3g", 1e3 * at.others_s) + " +- " + fmt("%.2g", 1e3 * at.others_sigma_s) +
+              " ms), where the catalog's timing is one for the triad: an axis sampled at an instant of its own (a multiplexed converter)" +
+              (at.triad_withdrawn ? "; the triad's timing it was read as is withdrawn" : "") + " (held-out chi2/dof " + fmt("%.3g", ue->chi2_dof_after) + ")";
+    } else if (ue) {
       line += "not explained by any effect in the catalog";
       // "segment" leads only when no logged input comes within 80 % of it (residual_signature): the residual then
       // steps from segment to segment, and "follows segment" would read as if the segment index were an input.
@@ -417,6 +432,28 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                         {"last_t_s", num(g.last_t_s)},  {"t_s", g.t_s}};
   }
   j["glitches"] = gl;
+  // Every axis whose dwells could be compared (both records reached a common τ), flagged or not.
+  nlohmann::json tm = nlohmann::json::object();
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto& m = r.temp_motion[static_cast<std::size_t>(a)];
+    if (!(m.moving_s > 0 && m.holding_s > 0)) continue;
+    tm[axis_name(a)] = {{"flagged", m.flagged},   {"ratio", num(m.ratio)},          {"tau_s", num(m.tau_s)},
+                        {"z", num(m.z)},           {"edf_moving", num(m.edf_moving)}, {"edf_holding", num(m.edf_holding)},
+                        {"moving_s", num(m.moving_s)}, {"holding_s", num(m.holding_s)}};
+  }
+  j["temp_motion"] = tm;
+  nlohmann::json atj = nlohmann::json::object();
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto& at = r.axis_timing[static_cast<std::size_t>(a)];
+    if (!(at.sigma_s > 0)) continue;
+    atj[axis_name(a)] = {{"odd", at.odd},
+                         {"latency_s", num(at.latency_s)},
+                         {"sigma_s", num(at.sigma_s)},
+                         {"others_s", num(at.others_s)},
+                         {"others_sigma_s", num(at.others_sigma_s)},
+                         {"triad_withdrawn", at.triad_withdrawn}};
+  }
+  j["axis_timing"] = atj;
   if (r.mount_iterations > 0)
     j["mount_rotation"] = {{"rad", {num(r.mount_rotation_rad[0]), num(r.mount_rotation_rad[1]), num(r.mount_rotation_rad[2])}},
                            {"sigma_rad", {num(r.mount_est.sigma_rad[0]), num(r.mount_est.sigma_rad[1]), num(r.mount_est.sigma_rad[2])}},

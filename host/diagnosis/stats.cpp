@@ -1,6 +1,7 @@
 #include "host/diagnosis/stats.h"
 
 #include "host/diagnosis/noise_model.h"
+#include "host/estimator/robust.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -219,8 +220,7 @@ SpectralLine line_power_spectrum(const std::vector<double>& t_s, const Eigen::Re
   std::vector<double> dt;
   dt.reserve(static_cast<std::size_t>(n));
   for (int i = 1; i < n; ++i) dt.push_back(t_s[static_cast<std::size_t>(i)] - t_s[static_cast<std::size_t>(i - 1)]);
-  std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
-  const double med_dt = dt[dt.size() / 2];
+  const double med_dt = estimator::upper_median_in_place(dt);
   const double t0 = t_s.front(), span = t_s.back() - t_s.front();
   if (!(med_dt > 0) || !(span > 0)) return out;
   const double f_lo = 2.0 / span;

@@ -5,6 +5,8 @@
 #include <deque>
 #include <vector>
 
+#include "host/estimator/robust.h"
+
 namespace imuforge::diagnosis {
 
 std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double duration_s) {
@@ -140,8 +142,7 @@ std::array<StepLag, 2> probe_step_lag(SampleSource& src, double fs, double durat
         e[i] = resid(i);
         if (in[i]) a.push_back(std::fabs(e[i]));
       }
-      std::nth_element(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2), a.end());
-      const double cut = std::max(2.0 * h, 3.0 * 1.4826 * a[a.size() / 2]);
+      const double cut = std::max(2.0 * h, 3.0 * estimator::robust_sigma_of_magnitudes(a));
       bool changed = false;
       for (std::size_t i = 0; i < n; ++i) {
         const char k = std::fabs(e[i]) <= cut ? 1 : 0;

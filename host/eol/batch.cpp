@@ -17,6 +17,7 @@
 #include "host/eol/passfail.h"
 #include "host/eol/report.h"
 #include "host/eol/schedule.h"
+#include "host/estimator/robust.h"
 #include "host/io/log.h"
 #include "host/solver/consider.h"
 #include "host/solver/fixture.h"
@@ -35,11 +36,7 @@ double thread_cpu_s() {
 
 using io::fmt_num;
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+using estimator::median;
 
 void solve_one(const BatchUnit& u, const StationConfig& st, const model::ModelSpec& spec, const physics::Campaign& camp,
                UnitOutcome& out) {
@@ -177,7 +174,7 @@ void mark_outliers(BatchOutcome& b, const BatchOptions& opt) {
     s.median = median(v);
     std::vector<double> dev;
     for (double x : v) dev.push_back(std::fabs(x - s.median));
-    s.robust_sigma = 1.4826 * median(dev);
+    s.robust_sigma = estimator::kMadToSigma * median(dev);
     b.spread.push_back(s);
     if (s.n < opt.min_units_for_outliers) continue;
     for (auto& u : b.units) {

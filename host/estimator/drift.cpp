@@ -11,6 +11,7 @@
 
 #include "host/estimator/estimator.h"
 #include "host/estimator/stochastic.h"
+#include "host/estimator/robust.h"
 
 namespace imuforge::estimator {
 namespace {
@@ -154,15 +155,13 @@ DwellDrift fit_dwell_drift(const DwellSeries& s) {
   if (S < Q.cols() + 4) return out;
 
   std::vector<double> w(s.white_var.data(), s.white_var.data() + S);
-  std::nth_element(w.begin(), w.begin() + S / 2, w.end());
-  const double s0 = w[static_cast<size_t>(S / 2)];
+  const double s0 = upper_median_in_place(w);
   std::vector<double> dt;
   for (size_t i = 1; i < s.t_s.size(); ++i)
     if (s.t_s[i] > s.t_s[i - 1]) dt.push_back(s.t_s[i] - s.t_s[i - 1]);
   const double span = s.t_s.back() - s.t_s.front();
   if (dt.empty() || !(span > 0)) return out;
-  std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
-  const double dt_med = dt[dt.size() / 2];
+  const double dt_med = upper_median_in_place(dt);
   const double lt_hi = std::log(span), lt_lo = std::log(std::max(dt_med / 4.0, 1e-3));
   // The flicker bank spans the scales the dwell means can show: from a quarter of their spacing to the span.
   const std::vector<double> bank = flicker_bank_taus(std::exp(lt_lo), span);

@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "host/poses/gravity_fit.h"
+#include "host/estimator/robust.h"
 
 namespace imuforge::solver {
 
@@ -45,8 +46,7 @@ Repeatability repeatability(const std::vector<const RawRecording*>& recs, const 
     for (double v : p.values) ss += (v - mean) * (v - mean);
     p.spread = std::sqrt(ss / static_cast<double>(n - 1));
     std::vector<double> s = p.sigmas;
-    std::nth_element(s.begin(), s.begin() + static_cast<long>(s.size() / 2), s.end());
-    p.sigma = s[s.size() / 2];
+    p.sigma = estimator::upper_median_in_place(s);
     p.ratio = p.sigma > 0 ? p.spread / p.sigma : INFINITY;
     p.sigma_covering = std::hypot(p.sigma, p.spread);
     if (p.ratio > kSpreadWarnRatio) {
