@@ -5148,6 +5148,10 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     const std::array<AxisTiming, kNumAxes> seen = R.axis_timing;
     R = diagnose_timed(clean, base, o);
     R.axis_timing = seen;
+    // A timing the reference steps force (a shift of a sample or more: diagnose_timed) stays whatever the candidates.
+    for (int si = 0; si < 2; ++si)
+      for (const auto& st : R.selected)
+        if (st.sensor == model::sensor_name(static_cast<Sensor>(si)) && st.effect == "timing") withdraw[static_cast<std::size_t>(si)] = false;
     for (int a = 0; a < kNumAxes; ++a) R.axis_timing[static_cast<std::size_t>(a)].triad_withdrawn = withdraw[static_cast<std::size_t>(a / 3)];
     char buf[200];
     for (int si = 0; si < 2; ++si)
