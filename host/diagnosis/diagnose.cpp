@@ -656,7 +656,7 @@ struct Pass1 {
 
 // The static dwells' scatter while the die's temperature moves against while it holds (TempMotionNoise, diagnose.h):
 // at each τ both records reach, the ratio of the Allan variances and its z on the log scale (ln ratio has variance
-// 2/edf per estimate); the τ with the largest z among those where the ratio is at least opt.temp_motion_ratio.
+// 2/edf per estimate); the largest ratio among the τ where z ≥ opt.temp_motion_z, flagged at ≥ opt.temp_motion_ratio.
 TempMotionNoise compare_temp_motion(const std::vector<AllanAccumulator::Point>& moving, const std::vector<AllanAccumulator::Point>& holding,
                                     const Options& opt) {
   TempMotionNoise out;
@@ -2278,6 +2278,11 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       }
     }
   }
+  candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
+                                  [&](const std::pair<Sensor, Effect>& c) {
+                                    return std::find(o.excluded.begin(), o.excluded.end(), c) != o.excluded.end();
+                                  }),
+                   candidates.end());
   // Base parameters the campaign cannot determine.
   for (int a = 0; a < kNumAxes; ++a) {
     Fit f = fit_axis(ax[static_cast<std::size_t>(a)], cols_for(ax[static_cast<std::size_t>(a)], model_ids), -1);
@@ -5134,17 +5139,8 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
   std::array<bool, 2> withdraw = check_axis_timing(R, opt);
   if (withdraw[0] || withdraw[1]) {
     Options o = opt;
-    if (o.candidates.empty())
-      for (const auto& e : model::effects()) {
-        if (e.kind != model::EffectKind::kDeterministic) continue;
-        for (Sensor s : {Sensor::kAccel, Sensor::kGyro})
-          if (e.sensors & (s == Sensor::kAccel ? model::kMaskAccel : model::kMaskGyro)) o.candidates.push_back({s, e.effect});
-      }
-    o.candidates.erase(std::remove_if(o.candidates.begin(), o.candidates.end(),
-                                      [&](const std::pair<Sensor, Effect>& c) {
-                                        return c.second == Effect::kTiming && withdraw[static_cast<std::size_t>(c.first)];
-                                      }),
-                       o.candidates.end());
+    for (int si = 0; si < 2; ++si)
+      if (withdraw[static_cast<std::size_t>(si)]) o.excluded.push_back({static_cast<Sensor>(si), Effect::kTiming});
     const std::array<AxisTiming, kNumAxes> seen = R.axis_timing;
     R = diagnose_timed(clean, base, o);
     R.axis_timing = seen;

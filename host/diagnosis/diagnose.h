@@ -177,6 +177,9 @@ struct Options {
                                        // (a quadratic in T is regressed out of the run first)
   // Candidate effects; empty = every deterministic catalog effect not in the base model.
   std::vector<std::pair<model::Sensor, model::Effect>> candidates;
+  // Effects never tried, whatever `candidates` holds (set internally: a sensor's timing withdrawn because one axis
+  // alone carried it, AxisTiming).
+  std::vector<std::pair<model::Sensor, model::Effect>> excluded;
   // Claimed white-noise density per axis (unit/√Hz) for the Allan comparison; NaN = not claimed.
   std::array<double, kNumAxes> claimed_N = nan_axes();
   // Whole-log wander (docs/diagnosis.md § 2): per axis, a flicker B or a rate random walk K that the likelihood

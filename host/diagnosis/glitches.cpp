@@ -30,8 +30,7 @@ double residual(const double* v) {
 
 GlitchFilterSource::GlitchFilterSource(SampleSource& inner, double z_threshold, std::size_t max_buffered_rows)
     : inner_(inner), z_(z_threshold), max_buffered_(std::max<std::size_t>(max_buffered_rows, 2 * kStretchRows)) {
-  off_ = !(z_threshold > 0);
-  searched_ = off_;
+  searched_ = !(z_threshold > 0);  // off: nothing to search, every pass replays the log as it is
   trace_ = std::getenv("IMUFORGE_DIAG_TRACE") != nullptr;
   scratch_.reserve(kStretchRows);
 }

@@ -93,7 +93,6 @@ class GlitchFilterSource : public SampleSource {
   SampleSource& inner_;
   double z_;
   std::size_t max_buffered_;
-  bool off_ = false;
   bool searched_ = false;  // a pass reached the end: fixes_ and summary_ are complete, later passes replay
   // The search (first pass).
   Row ring_[kRing];
