@@ -105,7 +105,8 @@ struct Options {
   // drifting 57 ppm) lost a gain of hundreds there while its predictive χ² dropped from 11 to 0.3 per segment
   // (`varied32` random-1: a true gyro k2 at SNR 26 and the temp_hysteresis after it missed). The verdict's
   // held-out χ²/dof has been the predictive one since stop 45 (heldout_predictive); since stop 61 the selection's
-  // gain is too. false: the plain χ² (stop 60 and before).
+  // gain is too, and since stop 63 a timing's gain on the withheld blocks (timing_heldout_blocks) as well.
+  // false: the plain χ² (stop 60 and before).
   bool heldout_gain_predictive = true;
   // A candidate's held-out gain and the excess it shrinks are summed over its axes with each axis that the
   // augmented model leaves unexplained (held-out χ²/dof > unexplained_chi2_dof) in units of that misfit, so one
@@ -172,6 +173,10 @@ struct Options {
   double block_w_tol = 0.05;        // rad/s
   double block_temp_tol_C = 0.5;
   int max_blocks = 6000;            // sets the minimum block length from the log duration
+  // Cut a block where the reference rate crosses the static bar (0.01 rad/s), once the block is a second long:
+  // a dwell left or reached by a smooth ramp keeps a static block (diagnose.cpp, block cutting). Off: cut only
+  // by block_w_tol past the minimum block length (stop 62 and before).
+  bool cut_at_motion_bar = true;
   double settle_s = 1.5;            // trimmed from both ends of a static run before its Allan variance
   double static_run_temp_tol_C = 5.0;  // static blocks of one segment join one Allan run within this range
                                        // (a quadratic in T is regressed out of the run first)

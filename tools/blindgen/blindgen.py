@@ -645,6 +645,19 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     if kind == 'axis_skew':      # one axis sampled tau after the others (a multiplexed converter): its output is its
         u = f_imu if o['sensor'] == 'accel' else w_imu  # input at t - tau. The catalog's latency is one per triad, and
         return np.interp(t - o['tau_s'], t, u[:, j]) - u[:, j]  # is absent here on the other two axes
+    if kind == 'scale_temp_hyst':  # a scale factor that remembers which way the die's temperature last moved (the
+        u = f_imu if o['sensor'] == 'accel' else w_imu  # package's stress relaxing one way on heating, the other on
+        moving = np.abs(Tdot) > o['gate_C_per_s']  # cooling): +per_unit after a warming, -per_unit after a cooling,
+        last = np.maximum.accumulate(np.where(moving, np.arange(len(t)), -1))  # 0 before the first. The catalog's
+        d = np.where(last >= 0, np.sign(Tdot[np.maximum(last, 0)]), 0.0)  # temp_hysteresis is a bias, its scale_temp
+        return o['per_unit'] * d * u[:, j]  # a function of T alone
+    if kind == 'cogging':        # a bias locked to the table motor's rotor: n lobes per turn of the outer axis (its
+        return o['amplitude'] * np.sin(o['lobes'] * ang[:, 2] + o['phase_rad'])  # cogging field); while the table
+        # turns it oscillates at n times the turn rate, at rest it depends on where the table stopped
+    if kind == 'mount_flex':     # accel bias from the mount flexing under the centripetal load of a rotation: the
+        k = AX.index(o['input_axis'])  # package tilts by c |w|^2 about an axis, so the axis reads another axis'
+        return o['coefficient'] * np.sum(w_imu ** 2, axis=1) * f_imu[:, k]  # specific force times |w|^2 (the
+        # catalog's size_effect is |w|^2 alone, g_sensitivity f alone)
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -1127,10 +1140,14 @@ OOC_KINDS_UNSEEN10 = ['heater_on', 'glitch', 'range_switch']
 # periodic in the output code, a bias sawtooth in the die temperature (a coarse temperature sensor feeding the part's
 # own compensation), one axis sampled later than the other two (a multiplexed converter)
 OOC_KINDS_UNSEEN11 = ['inl_periodic', 'temp_saw', 'axis_skew']
+# written at stop 63 and first run on the stop-62 binary (suite 'unseen12'): a scale factor that remembers which way
+# the die's temperature last moved, a bias locked to the table motor's rotor (n lobes per turn), an accel reading
+# another axis' specific force times the squared rate (the mount flexing under the centripetal load)
+OOC_KINDS_UNSEEN12 = ['scale_temp_hyst', 'cogging', 'mount_flex']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g',
                  'range_switch')
-OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple', 'knee')
+OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple', 'knee', 'mount_flex')
 
 
 def ooc_params(ooc_kind, amp, rng, scenario):
@@ -1230,6 +1247,13 @@ def ooc_params(ooc_kind, amp, rng, scenario):
         return dict(amplitude=amp, q_C=float(rng.uniform(0.5, 2.0)))
     if ooc_kind == 'axis_skew':  # amp: the error at the sines' largest rate of change (3.4 rad/s^2 for the gyro, the
         return dict(tau_s=None, amplitude=amp)  # gravity turning at 1.1 rad/s, 10.8 m/s^3, for the accel)
+    if ooc_kind == 'scale_temp_hyst':  # amp at the largest input (1 g, or the top rate); gated as the compressor
+        return dict(per_unit=None, amplitude=amp, _top_rate=math.radians(max(scenario['rates_dps'])),
+                    gate_C_per_s=0.2 * scenario['slew_C_per_min'] / 60.0)
+    if ooc_kind == 'cogging':
+        return dict(amplitude=amp, lobes=int(rng.integers(4, 13)), phase_rad=float(rng.uniform(0, 2 * np.pi)))
+    if ooc_kind == 'mount_flex':  # amp at the top rate and 1 g along the input axis
+        return dict(coefficient=amp / (9.80665 * math.radians(max(scenario['rates_dps'])) ** 2), input_axis=None)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
 
 
@@ -1251,6 +1275,11 @@ def ooc_fill_axis(o, rng):
         rate = 9.80665 * math.radians(20) * math.pi if o['sensor'] == 'accel' else math.radians(20) * math.pi ** 2
         a = o.pop('amplitude')
         o['tau_s'] = math.copysign(min(max(abs(a) / rate, 2e-4), 8e-3), a)
+    if o['kind'] == 'scale_temp_hyst':
+        top = o.pop('_top_rate')
+        o['per_unit'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
+    if o['kind'] == 'mount_flex':
+        o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
     if o['kind'] == 'scale_bump':
         top = o.pop('_top_rate')
         o['per_unit'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
