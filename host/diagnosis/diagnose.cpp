@@ -1173,7 +1173,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         // A dwell the motion leaves or reaches smoothly (a table ramping its rate from rest and back, as real
         // tables do) is cut where the rate crosses the static bar (kMotionRate_rad_s), not only once it has moved
         // by block_w_tol or past min_block_s: otherwise the ramp's first samples join the dwell's block, which is
-        // then not static, and a segment that starts its motion smoothly had no static block at all. The dwell's
+        // then not static (a dwell between two ramps lost to the Allan curve and the noise fit). The dwell's
         // block before the crossing needs a second (and is_static's eight samples), so a reference hovering about
         // the bar cannot shatter the log into blocks.
         if (!cut && opt.cut_at_motion_bar && cur.t_s - acc.b.t0 >= std::max(1.0, 8.0 / p0.fs)) {
@@ -2632,8 +2632,9 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
         // ΔBIC −6e4, held-out shrink −2 % on segment means: the "timing" contradiction). The folds stay
         // whole segments, so the score is still out of sample.
         // Predictive as the segment means are (Options::heldout_gain_predictive): a per-axis latency that one
-        // fold's training segments pin down loosely (one axis sampled late, ooc-axis_skew-0: gyro.z 0.49 ms late
-        // at −log10 p 313) lost −451 % there on the plain χ² and went unselected, its axis unnamed.
+        // fold's training segments pin down only as latency + drift · time (one axis sampled at its own instant,
+        // unseen11 ooc-axis_skew-0: gyro.z 0.49 ms early, −log10 p 313, its sines in two folds) lost −451 % on the
+        // plain χ² of the fold extrapolated to and went unselected, its axis unnamed.
         const HeldOut hba = heldout_axis(ad, ad, sel, folds), hbc = heldout_axis(ad, ad, sel0, folds);
         const double ba = o.heldout_gain_predictive ? hba.chi2_pred : hba.chi2;
         const double bc = o.heldout_gain_predictive ? hbc.chi2_pred : hbc.chi2;
