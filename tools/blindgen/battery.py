@@ -722,7 +722,7 @@ def main(argv):
         return selftest()
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
-    ap.add_argument('--work', required=True, help='folder for cases and outputs (cases are cached by content hash)')
+    ap.add_argument('--work', required=True, help='folder for cases and outputs (a case folder is named after the case and reused while its content hash matches: suites sharing case names need folders of their own when run at once)')
     ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'varied23', 'varied24', 'varied25', 'varied26', 'varied27', 'unseen', 'unseen2', 'unseen3', 'unseen4', 'unseen5', 'unseen6', 'varied28', 'unseen7', 'varied29', 'varied30', 'unseen8', 'varied31', 'unseen9', 'varied32', 'unseen10', 'varied33', 'unseen11', 'varied34', 'unseen12'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
