@@ -323,6 +323,7 @@ int run_diagnose(int argc, char** argv) {
       segs = std::make_unique<diagnosis::ReferenceSegmentSource>(*src);
       if (segs->changes()) src = segs.get();
     }
+    opt.output_lsb = {real.meta().accel_lsb_mps2, real.meta().gyro_lsb_rad_s};
     diagnosis::DiagnosisResult r = diagnosis::diagnose(*src, base, opt);
     if (segs && segs->derived())
       r.warnings.push_back("the log's segment column carries no schedule (" + std::to_string(segs->logged_segments()) +

@@ -8,6 +8,7 @@
 // step_lag.*, the rate table's axis errors in table_errors.*.
 #include "host/diagnosis/diagnose.h"
 #include "host/diagnosis/glitches.h"
+#include "host/diagnosis/output_bits.h"
 #include "host/diagnosis/step_lag.h"
 #include "host/diagnosis/table_errors.h"
 
@@ -652,6 +653,7 @@ struct Pass1 {
   long long ndz = 0;
   long long n_used = 0;
   int n_units = 0;
+  std::array<OutputBitCounter, kNumAxes> bits;  // every row's output word (StuckBits)
 };
 
 // The static dwells' scatter while the die's temperature moves against while it holds (TempMotionNoise, diagnose.h):
@@ -710,6 +712,10 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   table_group.n_group = std::clamp(static_cast<int>(std::lround(p0.fs / 100.0)), 1, kDerivGroup);
   const bool mount = opt.mount_rotation_rad[0] != 0.0 || opt.mount_rotation_rad[1] != 0.0 || opt.mount_rotation_rad[2] != 0.0;
   Pass1 out;
+  for (int a = 0; a < kNumAxes; ++a) {
+    const double lsb = opt.output_lsb[static_cast<std::size_t>(a / 3)];
+    out.bits[static_cast<std::size_t>(a)] = OutputBitCounter(lsb > 0 ? lsb : p0.out_step[static_cast<std::size_t>(a)]);
+  }
   const double dur = p0.t_last - p0.t_first;
   const double min_block_s = std::max(2.0 / p0.fs, dur / std::max(1, opt.max_blocks));
   const long long max_bins = 1LL << 20;
@@ -1096,6 +1102,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   have_cur = src.next(cur);
   if (have_cur) have_next = src.next(nxt);
   while (have_cur) {
+    for (int a = 0; a < kNumAxes; ++a) out.bits[static_cast<std::size_t>(a)].add(cur.y[a]);
     const double T_smooth_C = std::isnan(cur.temp_C) ? cur.temp_C : temp_lp.update(cur.temp_C, cur.t_s);
     double d;
     if (profile && k_default >= 0) {
@@ -1105,11 +1112,15 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       d = hyst.update(T_smooth_C);
     }
     if (cur.has_ref) {
+      // The reference's |ω|² and |ω|, once per sample: the wound-up rotation, the cut at the static bar and the
+      // block's accumulation all use them.
+      double wn2 = 0;
+      for (int k = 0; k < 3; ++k) wn2 += cur.w[k] * cur.w[k];
+      const double wn = std::sqrt(wn2);
       // The rotation wound up about the specific force (Block::wound_rad), over every referenced sample, those left
       // out at a step included; not across a gap in the reference.
       {
         const double fn = std::sqrt(cur.f[0] * cur.f[0] + cur.f[1] * cur.f[1] + cur.f[2] * cur.f[2]);
-        const double wn = std::sqrt(cur.w[0] * cur.w[0] + cur.w[1] * cur.w[1] + cur.w[2] * cur.w[2]);
         const double dt = cur.t_s - wound_t;
         if (dt > 0 && dt < 5.0 / p0.fs && fn > 1.0 && wn > kMotionRate_rad_s)
           wound_rad += (cur.w[0] * cur.f[0] + cur.w[1] * cur.f[1] + cur.w[2] * cur.f[2]) / fn * dt;
@@ -1177,8 +1188,6 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         // block before the crossing needs a second (and is_static's eight samples), so a reference hovering about
         // the bar cannot shatter the log into blocks.
         if (!cut && opt.cut_at_motion_bar && cur.t_s - acc.b.t0 >= std::max(1.0, 8.0 / p0.fs)) {
-          double wn2 = 0;
-          for (int k = 0; k < 3; ++k) wn2 += cur.w[k] * cur.w[k];
           const bool moving_now = wn2 >= kMotionRate_rad_s * kMotionRate_rad_s;
           cut = moving_now != (acc.maxw >= kMotionRate_rad_s);
         }
@@ -1260,7 +1269,6 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
       b.absTdot += std::fabs(in.Tdot_C_s);
       b.d += d;
       for (int k = 0; k < kHysteresisGrid; ++k) b.d_grid[static_cast<std::size_t>(k)] += d_grid[static_cast<std::size_t>(k)];
-      double wn = 0;
       for (int k = 0; k < 3; ++k) {
         b.f[k] += cur.f[k];
         b.w[k] += cur.w[k];
@@ -1273,11 +1281,9 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
           b.cos_a[k] += std::cos(cur.table_angle_rad[k]);
           ++b.n_a[k];
         }
-        wn += cur.w[k] * cur.w[k];
         acc.fmin[k] = std::min(acc.fmin[k], cur.f[k]);
         acc.fmax[k] = std::max(acc.fmax[k], cur.f[k]);
       }
-      wn = std::sqrt(wn);
       b.absw += wn;
       b.wound_rad += wound_rad;
       acc.maxw = std::max(acc.maxw, wn);
@@ -1501,6 +1507,11 @@ std::vector<SignatureFunction> signature_functions(const std::vector<Block>& blo
   for (int k = 0; k < 3; ++k) feats.push_back({std::string("f_") + ax[k] + "*T", [k, Tm](const Block& b) { return b.f[k] * (b.T - Tm); }});
   for (int k = 0; k < 3; ++k) feats.push_back({std::string("f_") + ax[k] + "*time", [k, tm](const Block& b) { return b.f[k] * (b.t - tm); }});
   for (int k = 0; k < 3; ++k) feats.push_back({std::string("w_") + ax[k] + "*time", [k, tm](const Block& b) { return b.w[k] * (b.t - tm); }});
+  // A sensitivity that moves with the die's temperature rate (a gradient across the die while it heats or cools
+  // bends the sense structure): the model's scale takes its mean, temp_rate the part that is a bias, and what is
+  // left goes with the input times Ṫ (stop 64: unseen13's tdot_scale read as "f_x from 259 s on").
+  for (int k = 0; k < 3; ++k) feats.push_back({std::string("f_") + ax[k] + "*Tdot", [k](const Block& b) { return b.f[k] * b.Tdot; }});
+  for (int k = 0; k < 3; ++k) feats.push_back({std::string("w_") + ax[k] + "*Tdot", [k](const Block& b) { return b.w[k] * b.Tdot; }});
   feats.push_back({"T", [](const Block& b) { return b.T; }});
   // A bias that departs from the polynomial in T over a few degrees only (a mode crossing, a regulator's or a
   // package's change of state near one temperature): hats of T, each 1 at its knot and 0 a knot spacing away,
@@ -1915,6 +1926,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       R.noise[ua].terms.N = std::sqrt(var / p0.fs);
     }
   }
+  for (int a = 0; a < kNumAxes; ++a) R.stuck_bits[static_cast<std::size_t>(a)] = p1.bits[static_cast<std::size_t>(a)].finish();
   for (int a = 0; a < kNumAxes; ++a)
     R.temp_motion[static_cast<std::size_t>(a)] = compare_temp_motion(p1.allan_moving[static_cast<std::size_t>(a)].points(),
                                                                       p1.allan_holding[static_cast<std::size_t>(a)].points(), o);
@@ -5195,6 +5207,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     if (R.axis_timing[ua].odd) name_axis(a, "axis_timing", true);
     if (R.temp_motion[ua].flagged) name_axis(a, "temp_motion", false);  // colored "noise" only while T moves
     if (R.glitches[ua].count > 0) name_axis(a, "glitches", false);
+    if (R.stuck_bits[ua].bit >= 0) name_axis(a, "stuck_bit", true);  // the word, not the physics: it leads
   }
   return R;
 }

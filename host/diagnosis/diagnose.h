@@ -264,6 +264,9 @@ struct Options {
   // so the ratio carries the weight: 9 is an Allan deviation three times larger. temp_motion_z 0 turns it off.
   double temp_motion_ratio = 9.0;
   double temp_motion_z = 6.0;
+  // One count of each triad's output word (accel m/s², gyro rad/s; 0: not known), from the log's metadata: the codes
+  // whose bits StuckBits reads. Where it is 0 the output step the samples show is taken (continuous values: not asked).
+  std::array<double, 2> output_lsb{};
   // A selected timing whose per-axis latencies disagree (AxisTiming): the three inconsistent with one value at
   // −log10 p ≥ axis_timing_log10p (χ² on 2 dof), and the odd axis more than axis_timing_z joint σ from the other
   // two's mean. axis_timing_z 0 turns it off.
@@ -390,7 +393,8 @@ struct Unexplained {
   // whole log's residual is no stationary wander: Options::wander_unexplained_*) or "glitches" (neither, but the
   // axis held isolated single-sample outliers, replaced before the fit: DiagnosisResult::glitches) or
   // "temp_motion" (its static dwells scatter far more while the temperature moves: DiagnosisResult::temp_motion)
-  // or "axis_timing" (a latency of its own, apart from the other two axes': DiagnosisResult::axis_timing).
+  // or "axis_timing" (a latency of its own, apart from the other two axes': DiagnosisResult::axis_timing)
+  // or "stuck_bit" (a bit of its output word that never changes: DiagnosisResult::stuck_bits).
   std::string basis = "heldout_chi2";
 };
 
@@ -406,6 +410,21 @@ struct GlitchSummary {
   double first_t_s = 0, last_t_s = 0;
   std::vector<double> t_s;    // the first kListed glitches' times (s)
   static constexpr std::size_t kListed = 20;
+};
+
+// A bit of an axis' output word that never changes while the bit above it does across neighbouring codes: a bit stuck
+// at 0 or 1 in the converter or on the bus (missing codes), found from the codes y / step of a quantised output
+// (output_bits.h says why a healthy output cannot show it). No catalog effect and no noise has that shape: each
+// sample is off by 0 or 2^bit counts depending on its code, which the dwells' noise model otherwise takes in as
+// bias instability (blindgen's stuck_bit: a consumer gyro's bit 4 read as a flicker 13x the sensor's).
+struct StuckBits {
+  double step = 0;              // the output's step (SI; 0: not a quantised output, not asked)
+  long long rows = 0;           // rows read as whole codes (the others, a glitch's fix or a value off the lattice, skipped)
+  std::uint64_t mask = 0;       // the stuck bits (bit b of the code)
+  int bit = -1;                 // the lowest of them (−1: none)
+  bool high = false;            // it reads 1 throughout (else 0)
+  long long below_toggles = 0;  // how often the bit under it changed between neighbouring rows
+  long long above_toggles = 0;  // how often the bit over it changed across a neighbouring code (a step < 2^(bit+1))
 };
 
 // The static dwells' scatter while the die's temperature moves against while it holds, per axis. A sensor's noise
@@ -508,6 +527,7 @@ struct DiagnosisResult {
   };
   std::array<Wander, kNumAxes> wander{};
   std::array<GlitchSummary, kNumAxes> glitches{};
+  std::array<StuckBits, kNumAxes> stuck_bits{};
   std::array<TempMotionNoise, kNumAxes> temp_motion{};
   std::array<AxisTiming, kNumAxes> axis_timing{};
   std::array<double, kNumAxes> claimed_N{};

@@ -164,7 +164,18 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
               ", not the sensor's physics; replaced by the line through " + (gl.count > 1 ? "their" : "its") + " neighbours before the fit; with " +
               (gl.count > 1 ? "them" : "it") + " replaced, ";
     }
-    if (ue && ue->basis == "temp_motion") {
+    if (ue && ue->basis == "stuck_bit") {
+      const auto& sb = r.stuck_bits[u];
+      int more = 0;
+      for (int b = sb.bit + 1; b < 64; ++b) more += static_cast<int>((sb.mask >> b) & 1u);
+      line += "not explained by any effect in the catalog, nor by the sensor's noise: bit " + std::to_string(sb.bit) + " of its output word (" +
+              fmt("%.3g", std::ldexp(sb.step, sb.bit)) + " " + unit_of(a) + ") reads " + (sb.high ? "1" : "0") + " in all " +
+              std::to_string(sb.rows) + " samples, while the bit under it changed " + std::to_string(sb.below_toggles) +
+              " times and the bit over it " + std::to_string(sb.above_toggles) + " times between neighbouring codes" +
+              (more > 0 ? " (and " + std::to_string(more) + " more bit" + (more > 1 ? "s" : "") + " above it)" : std::string()) +
+              ": a stuck bit in the converter or on the bus (missing codes), not the sensor's physics; every sample is off by 0 or that much, "
+              "depending on its code (held-out chi2/dof " + fmt("%.3g", ue->chi2_dof_after) + ")";
+    } else if (ue && ue->basis == "temp_motion") {
       const auto& m = r.temp_motion[u];
       line += "not explained by any effect in the catalog, nor by the sensor's noise: its static dwells scatter " +
               fmt("%.2g", std::sqrt(m.ratio)) + "x more (Allan deviation at " + fmt("%.3g", m.tau_s) +
@@ -432,6 +443,18 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                         {"last_t_s", num(g.last_t_s)},  {"t_s", g.t_s}};
   }
   j["glitches"] = gl;
+  // Every quantised axis (its output step known), stuck bit or not.
+  nlohmann::json sbj = nlohmann::json::object();
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto& sb = r.stuck_bits[static_cast<std::size_t>(a)];
+    if (!(sb.step > 0)) continue;
+    nlohmann::json bits = nlohmann::json::array();
+    for (int b = 0; b < 64; ++b)
+      if ((sb.mask >> b) & 1u) bits.push_back(b);
+    sbj[axis_name(a)] = {{"step", num(sb.step)},          {"rows", sb.rows},   {"stuck", bits}, {"high", sb.high},
+                         {"below_toggles", sb.below_toggles}, {"above_toggles", sb.above_toggles}};
+  }
+  j["stuck_bits"] = sbj;
   // Every axis whose dwells could be compared (both records reached a common τ), flagged or not.
   nlohmann::json tm = nlohmann::json::object();
   for (int a = 0; a < kNumAxes; ++a) {

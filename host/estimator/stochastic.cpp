@@ -79,15 +79,28 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
   for (int g = 0; g < G; ++g) P(g, g) = gm[static_cast<std::size_t>(g)].first;
   P(G, G) = std::max(rw_prior_var, 0.0);
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(NS, c);
-  Eigen::VectorXd phi(NS), h(NS);
+  Eigen::VectorXd phi(NS), h(NS), Ph(NS), Kg(NS);
+  Eigen::RowVectorXd hM(c), nu(c);
+  // Every GLS fit of the diagnosis runs this filter over a whole log's blocks (a 1 h, 1 kHz log: thousands of calls
+  // of 3000+ blocks), so the per-block work is kept to the arithmetic: the GM states' transition and block-mean
+  // factors are recomputed only where the spacing or the duration changes (both repeat from block to block), and
+  // no temporaries are allocated per block.
+  double dt_last = -1.0, d_last = -1.0;
+  Eigen::VectorXd h_gm(G), R_gm(G);
   for (int i = 0; i < n; ++i) {
     if (i > 0) {
       const double dt = std::max(t_s[static_cast<std::size_t>(i)] - t_s[static_cast<std::size_t>(i - 1)], 0.0);
-      for (int g = 0; g < G; ++g) phi[g] = std::exp(-dt / gm[static_cast<std::size_t>(g)].second);
-      phi[G] = 1.0;
-      if (seg_bias) phi[Qs] = 1.0;
-      M = phi.asDiagonal() * M;
-      P = phi.asDiagonal() * P * phi.asDiagonal();
+      if (dt != dt_last) {
+        for (int g = 0; g < G; ++g) phi[g] = std::exp(-dt / gm[static_cast<std::size_t>(g)].second);
+        phi[G] = 1.0;
+        if (seg_bias) phi[Qs] = 1.0;
+        dt_last = dt;
+      }
+      // M ← diag(φ) M and P ← diag(φ) P diag(φ), in place.
+      for (int col = 0; col < c; ++col)
+        for (int r = 0; r < NS; ++r) M(r, col) = phi[r] * M(r, col);
+      for (int col = 0; col < NS; ++col)
+        for (int r = 0; r < NS; ++r) P(r, col) = phi[r] * P(r, col) * phi[col];
       for (int g = 0; g < G; ++g) P(g, g) += gm[static_cast<std::size_t>(g)].first * (1.0 - phi[g] * phi[g]);
       // The random-walk state is the bias at the END of the last block (below): it walks over the gap only.
       const double gap = std::max((t_s[static_cast<std::size_t>(i)] - 0.5 * dur_s[static_cast<std::size_t>(i)]) -
@@ -116,32 +129,43 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
       continue;
     }
     double R = m.white_var(d) + (extra_var ? (*extra_var)[i] : 0.0);
+    if (d != d_last) {
+      for (int g = 0; g < G; ++g) {
+        double alpha = 1.0, vm = 1.0;
+        gm_block(d, gm[static_cast<std::size_t>(g)].second, alpha, vm);
+        h_gm[g] = alpha;
+        R_gm[g] = gm[static_cast<std::size_t>(g)].first * std::max(vm - alpha * alpha, 0.0);
+      }
+      d_last = d;
+    }
     for (int g = 0; g < G; ++g) {
-      double alpha = 1.0, vm = 1.0;
-      gm_block(d, gm[static_cast<std::size_t>(g)].second, alpha, vm);
-      h[g] = alpha;
-      R += gm[static_cast<std::size_t>(g)].first * std::max(vm - alpha * alpha, 0.0);
+      h[g] = h_gm[g];
+      R += R_gm[g];
     }
     h[G] = 1.0;
     if (seg_bias) h[Qs] = 1.0;
     R = std::max(R, 1e-300);
-    const Eigen::VectorXd Ph = P * h;
+    Ph.noalias() = P * h;
     const double Si = h.dot(Ph) + R + q / 3.0;  // Var(u/2 + e) = q/4 + q/12
-    Eigen::RowVectorXd nu = rows.row(i) - h.transpose() * M;
+    hM.noalias() = h.transpose() * M;
+    nu = rows.row(i) - hM;
     innov.row(i) = nu;
     S[i] = Si;
-    const Eigen::VectorXd Kg = Ph / Si;
-    M += Kg * nu;
+    Kg = Ph / Si;
+    M.noalias() += Kg * nu;
     P -= Kg * Kg.transpose() * Si;
     if (q > 0) {
       // Update u with the block (gain q/2 / S) and fold it into the walk: bias at the end = at the start + u.
       M.row(G) += (0.5 * q / Si) * nu;
-      const Eigen::VectorXd Pxu = -(0.5 * q / Si) * Ph;
-      P.col(G) += Pxu;
-      P.row(G) += Pxu.transpose();
+      const double gu = -(0.5 * q / Si);
+      for (int r = 0; r < NS; ++r) P(r, G) += gu * Ph[r];
+      for (int col = 0; col < NS; ++col) P(G, col) += gu * Ph[col];
       P(G, G) += q - 0.25 * q * q / Si;
     }
-    P = 0.5 * (P + P.transpose());
+    // P ← (P + Pᵀ)/2, in place. (Written as P = 0.5 (P + Pᵀ) this read its own half-overwritten transpose, Eigen
+    // assuming no aliasing, so the upper triangle was not the mean; the difference was in the last bits.)
+    for (int col = 0; col < NS; ++col)
+      for (int r = col + 1; r < NS; ++r) P(r, col) = P(col, r) = 0.5 * (P(r, col) + P(col, r));
   }
 }
 

@@ -14,6 +14,7 @@
 
 #include "host/diagnosis/glitches.h"
 #include "host/diagnosis/noise_model.h"
+#include "host/diagnosis/output_bits.h"
 #include "host/diagnosis/sources.h"
 #include "host/model/measure.h"
 #include "host/diagnosis/stats.h"
@@ -187,6 +188,18 @@ TEST(DiagnosisNoiseModel, FlickerFloorIsCarriedToTheLogDuration) {
   EXPECT_LT(std::fabs(nu(2, 0)), 0.75 * std::fabs(nu(0, 0)));
 }
 
+// Mid times of blocks of durations d, each after a gap (s) from the end of the one before.
+std::vector<double> block_mid_times(const std::vector<double>& d, const std::vector<double>& gap) {
+  std::vector<double> t(d.size());
+  double a = 0.0;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    a += gap[i];
+    t[i] = a + 0.5 * d[i];
+    a += d[i];
+  }
+  return t;
+}
+
 // Whole-log wander (noise_model.h): block means of a 3000 s record whose bias wanders as a random walk the
 // model does not carry (its K = 0, a small flicker). The REML raise must find the random walk near its true K
 // and pass the residual checks; a bias STEP or a slow SINE of similar size on the same white noise must fail
@@ -204,14 +217,7 @@ TEST(DiagnosisNoiseModel, WhiteningOfARandomWalkIsTheExactLikelihoodOfItsBlockMe
   const std::vector<double> d = {30.0, 30.0, 12.0, 5.0, 30.0, 2.5, 8.0, 30.0};
   const std::vector<double> gap = {0.0, 0.0, 4.0, 0.0, 17.0, 0.5, 0.0, 60.0};
   const int n = static_cast<int>(d.size());
-  std::vector<double> t(static_cast<std::size_t>(n));
-  double a = 0.0;
-  for (int i = 0; i < n; ++i) {
-    const auto u = static_cast<std::size_t>(i);
-    a += gap[u];
-    t[u] = a + 0.5 * d[u];
-    a += d[u];
-  }
+  const std::vector<double> t = block_mid_times(d, gap);
   Eigen::MatrixXd C(n, n);
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) {
@@ -234,6 +240,71 @@ TEST(DiagnosisNoiseModel, WhiteningOfARandomWalkIsTheExactLikelihoodOfItsBlockMe
   double dense = y.dot(llt.solve(y));
   for (int i = 0; i < n; ++i) dense += 2.0 * std::log(llt.matrixL()(i, i));
   EXPECT_NEAR(kf, dense, 1e-9 * std::fabs(dense));
+}
+
+// The same, with every state the filter carries: a single Gauss-Markov bias, a flicker bank, the random walk and a
+// per-segment bias, over blocks whose spacing and duration repeat in runs and change between them (the filter
+// recomputes a state's transition only where they change). The filter's model of a block mean is α_g g(t_i) + e_i
+// per GM state g (g at the block's mid time, Var e_i = σ_g² (vm_i − α_i²)), so its dense covariance is
+//   Σ_g σ_g² (α_i α_j e^{−|t_i − t_j|/T_g} + δ_ij (vm_i − α_i²)) + the random walk's (above) + s² [same segment].
+TEST(DiagnosisNoiseModel, WhiteningWithEveryStateIsTheExactLikelihoodOfItsBlockMeans) {
+  StochasticModel m;
+  m.N = 2e-3;
+  m.K = 1e-4;
+  m.gm_sigma = 3e-3;
+  m.gm_tau_s = 40.0;
+  m.bank_tau_s = flicker_bank_taus(1.0, 400.0);
+  m.bank_sigma = 1e-3;
+  m.bank_sigma_lik = 2e-3;
+  m.seg_bias_var = 4e-6;
+  const double p0 = 1e-6;
+  const std::vector<double> d = {4.0, 4.0, 4.0, 10.0, 10.0, 2.5, 4.0, 4.0, 30.0, 1.0, 1.0, 1.0, 6.0};
+  const std::vector<double> gap = {0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 3.0, 1.0, 20.0, 0.0, 0.0, 0.0, 2.0};
+  const std::vector<int> seg = {0, 0, 0, 1, 1, 1, 2, 2, 3, 4, 4, 4, 5};
+  const int n = static_cast<int>(d.size());
+  const std::vector<double> t = block_mid_times(d, gap);
+  const auto gm = m.gm_states();
+  ASSERT_EQ(gm.size(), 1u + m.bank_tau_s.size());
+  Eigen::MatrixXd C(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const auto ui = static_cast<std::size_t>(i), uj = static_cast<std::size_t>(j);
+      const auto um = static_cast<std::size_t>(std::min(i, j));
+      double c = p0 + m.K * m.K * (t[um] - (t[0] - 0.5 * d[0]));
+      if (i == j) c += -m.K * m.K * d[ui] / 6.0 + m.white_var(d[ui]);
+      for (const auto& g : gm) {
+        double ai = 1, vi = 1, aj = 1, vj = 1;
+        gm_block(d[ui], g.second, ai, vi);
+        gm_block(d[uj], g.second, aj, vj);
+        c += g.first * ai * aj * std::exp(-std::fabs(t[ui] - t[uj]) / g.second);
+        if (i == j) c += g.first * (vi - ai * ai);
+      }
+      if (seg[ui] == seg[uj]) c += m.seg_bias_var;
+      C(i, j) = c;
+    }
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> n01;
+  Eigen::MatrixXd rows(n, 2);
+  for (int i = 0; i < n; ++i) {
+    rows(i, 0) = 3e-3 * n01(rng);
+    rows(i, 1) = 1.0;
+  }
+  Eigen::MatrixXd innov(n, 2);
+  Eigen::VectorXd S(n);
+  whiten_segment(m, t, d, rows, p0, innov, S, nullptr, &seg);
+  const Eigen::LLT<Eigen::MatrixXd> llt(C);
+  ASSERT_EQ(llt.info(), Eigen::Success);
+  // −2 log L of column 0, and the GLS cross term of the two columns (the filter is linear in the data).
+  double kf = 0.0, kf01 = 0.0;
+  for (int i = 0; i < n; ++i) {
+    kf += std::log(S[i]) + innov(i, 0) * innov(i, 0) / S[i];
+    kf01 += innov(i, 0) * innov(i, 1) / S[i];
+  }
+  const Eigen::VectorXd y = rows.col(0), one = rows.col(1);
+  double dense = y.dot(llt.solve(y));
+  for (int i = 0; i < n; ++i) dense += 2.0 * std::log(llt.matrixL()(i, i));
+  EXPECT_NEAR(kf, dense, 1e-9 * std::fabs(dense));
+  EXPECT_NEAR(kf01, one.dot(llt.solve(y)), 1e-9 * std::sqrt(one.dot(llt.solve(one)) * y.dot(llt.solve(y))));
 }
 
 // White noise N and a faint flicker bank up to the n blocks' span, blocks of dur_s back to back: the dwells' model
@@ -736,6 +807,131 @@ TEST(DiagnosisNoiseModel, SpectralLineFalseAlarmIsCalibratedOnWhiteNoise) {
   EXPECT_LT(ll.false_alarm_p, 1e-6);
   EXPECT_NEAR(ll.period_s, 2000.0, 60.0);
   EXPECT_GT(line_power_spectrum(t_long, w_long).false_alarm_p, 1e-3);
+}
+
+// line_power_spectrum advances cos/sin by recurrence and sums two grid frequencies per pass: its power must be the
+// largest least-squares sinusoid power over its grid computed directly (std::cos/sin at each frequency), with an
+// odd number of grid frequencies (the last one summed alone) and an even one.
+TEST(DiagnosisNoiseModel, SpectralLineIsTheLargestPowerOnItsGridComputedDirectly) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n01;
+  std::uniform_real_distribution<double> u01;
+  bool odd = false, even = false;
+  for (int n = 120; n < 140 && !(odd && even); ++n) {
+    std::vector<double> t;
+    double now = 0;
+    while (static_cast<int>(t.size()) < n) t.push_back(now += 0.5 + 2.0 * u01(rng));
+    Eigen::VectorXd e(n);
+    for (int i = 0; i < n; ++i) e[i] = n01(rng) + 0.3 * std::sin(t[static_cast<std::size_t>(i)] / 9.0);
+    // The grid as documented: 2/D .. 1/(2 median spacing), oversampled 4× against 1/D (n × F is far below the bound).
+    std::vector<double> dt;
+    for (int i = 1; i < n; ++i) dt.push_back(t[static_cast<std::size_t>(i)] - t[static_cast<std::size_t>(i - 1)]);
+    std::sort(dt.begin(), dt.end());
+    const double med = dt[dt.size() / 2], span = t.back() - t.front();
+    const double f_lo = 2.0 / span, df = 1.0 / (4.0 * span);
+    const int F = static_cast<int>((0.5 / med - f_lo) / df) + 1;
+    (F % 2 ? odd : even) = true;
+    const Eigen::VectorXd ec = e.array() - e.mean();
+    const double var = ec.squaredNorm() / (n - 1);
+    double best = 0, best_period = 0;
+    for (int k = 0; k < F; ++k) {
+      const double f = f_lo + k * df;
+      double C = 0, S = 0, CC = 0, SS = 0, CS = 0;
+      for (int i = 0; i < n; ++i) {
+        const double ph = 2.0 * M_PI * f * (t[static_cast<std::size_t>(i)] - t.front());
+        const double c = std::cos(ph), sn = std::sin(ph);
+        C += ec[i] * c;
+        S += ec[i] * sn;
+        CC += c * c;
+        SS += sn * sn;
+        CS += c * sn;
+      }
+      const double pw = (SS * C * C - 2.0 * CS * C * S + CC * S * S) / (CC * SS - CS * CS) / (2.0 * var);
+      if (pw > best) {
+        best = pw;
+        best_period = 1.0 / f;
+      }
+    }
+    const SpectralLine l = line_power_spectrum(t, e);
+    EXPECT_NEAR(l.power, best, 1e-8 * best) << "n " << n << ", F " << F;
+    EXPECT_NEAR(l.period_s, best_period, 1e-9 * best_period) << "n " << n << ", F " << F;
+  }
+  EXPECT_TRUE(odd && even) << "both parities of the grid exercised";
+}
+
+// Stuck bits (output_bits.h): healthy quantised outputs of every kind a log has never show one, whatever their
+// noise against the step; a bit forced to 0 or 1 is found at its place, with the noise carrying the output across
+// its neighbours or not by much.
+TEST(DiagnosisStuckBits, HealthyWordsShowNoneAndAForcedBitIsFound) {
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> n01;
+  const double lsb = 1e-3;
+  // rows of noise sigma (counts) about means that change every dwell (clusters), optionally a bit forced
+  auto run = [&](double sigma, const std::vector<double>& means, int force_bit, bool force_high, int shift = 0) {
+    OutputBitCounter c(lsb);
+    for (int pass = 0; pass < 20; ++pass)
+      for (const double m : means)
+        for (int i = 0; i < 2000; ++i) {
+          auto code = static_cast<std::int64_t>(std::llround(m + sigma * n01(rng)));
+          code = static_cast<std::int64_t>(static_cast<std::uint64_t>(code) << shift);  // a left-justified word
+          if (force_bit >= 0) {
+            const std::uint64_t bit = std::uint64_t{1} << force_bit;
+            code = static_cast<std::int64_t>(force_high ? (static_cast<std::uint64_t>(code) | bit) : (static_cast<std::uint64_t>(code) & ~bit));
+          }
+          c.add(static_cast<double>(code) * lsb);
+        }
+    return c.finish();
+  };
+  // Healthy: fine and coarse noise against the step, about zero and far from it, two clusters far apart whose codes
+  // share every bit but the sign's (16884 = 0x41F4 and −15884 = 0x...C1F4: a pose change is not a neighbouring code),
+  // a word whose four lowest bits are always 0.
+  for (const double sigma : {0.3, 2.0, 6.5, 40.0, 3000.0})
+    for (const auto& means : {std::vector<double>{0.0}, std::vector<double>{12345.6}, std::vector<double>{-700.0, 900.0, 16000.0}}) {
+      const StuckBits h = run(sigma, means, -1, false);
+      EXPECT_EQ(h.bit, -1) << "sigma " << sigma << " means " << means.front() << ": bit " << h.bit;
+    }
+  EXPECT_EQ(run(1.0, {16884.0, -15884.0}, -1, false).bit, -1);
+  EXPECT_EQ(run(3.0, {20.0, 2068.0}, -1, false).bit, -1) << "two clusters 2048 apart: bit 11 moves only between them";
+  EXPECT_EQ(run(3.0, {100.0}, -1, false, 4).bit, -1) << "a left-justified word is not stuck";
+  // Forced bits: at 0, at 1, under the noise and well above it, near zero (the sign extension moving every high bit)
+  // and away from it.
+  struct Case { double sigma, mean; int bit; bool high; };
+  for (const Case& k : {Case{6.5, 3.0, 4, false}, Case{6.5, 3.0, 2, true}, Case{2.0, 5000.0, 3, false}, Case{40.0, -20000.0, 7, false},
+                        Case{1.5, 300.0, 1, true}}) {
+    const StuckBits f = run(k.sigma, {k.mean, k.mean + 37.0, k.mean - 81.0}, k.bit, k.high);
+    EXPECT_EQ(f.bit, k.bit) << "sigma " << k.sigma << " mean " << k.mean;
+    EXPECT_EQ(f.high, k.high) << "bit " << k.bit;
+    EXPECT_EQ(f.mask, std::uint64_t{1} << k.bit);
+  }
+  // Not a quantised output (no step): nothing is asked.
+  OutputBitCounter none(0.0);
+  none.add(1.0);
+  EXPECT_EQ(none.finish().rows, 0);
+}
+
+// The pipeline names a stuck bit's axis on that basis and selects nothing for it: a consumer-like gyro whose bit 4 is
+// stuck at 0 on static tilts read as a flicker 13x the sensor's on blindgen's stuck_bit-2 (stop 64).
+TEST(DiagnosisPipeline, AStuckBitIsNamedAsTheWordNotThePhysics) {
+  std::mt19937_64 rng(23);
+  std::normal_distribution<double> n01;
+  const double a_lsb = 6e-4, g_lsb = 1.33e-4;
+  const auto log = static_pose_log(two_axis_tilts(), 3, 8.0, [&](int, const Pose& f, double* y) {
+    for (int j = 0; j < 3; ++j) {
+      y[j] = a_lsb * static_cast<double>(std::llround((f[static_cast<std::size_t>(j)] + 4e-3 * n01(rng)) / a_lsb));
+      auto code = std::llround((3e-4 + 8.7e-4 * n01(rng)) / g_lsb);
+      if (j == 1) code = static_cast<long long>(static_cast<std::uint64_t>(code) & ~std::uint64_t{16});
+      y[3 + j] = g_lsb * static_cast<double>(code);
+    }
+  });
+  VectorSource src(log);
+  const DiagnosisResult r = diagnose(src, basic_model(), Options{});
+  ASSERT_EQ(r.unexplained.size(), 1u);
+  EXPECT_EQ(r.unexplained[0].axis, "gyro.y");
+  EXPECT_EQ(r.unexplained[0].basis, "stuck_bit");
+  EXPECT_EQ(r.stuck_bits[4].bit, 4);
+  for (int a = 0; a < kNumAxes; ++a)
+    if (a != 4) EXPECT_EQ(r.stuck_bits[static_cast<std::size_t>(a)].bit, -1) << axis_name(a);
+  for (const auto& st : r.selected) EXPECT_NE(st.sensor, "gyro") << st.effect;
 }
 
 TEST(DiagnosisNoiseModel, OutputStepIsFoundOnALatticeOnly) {
@@ -2731,6 +2927,49 @@ TEST(DiagnosisPipeline, ABiasThatFlipsWithTheRotationIsNamedByItsDirection) {
   EXPECT_EQ(r.plot_variable, "sign(w_z)");
   EXPECT_FALSE(r.scatter.empty());
   for (const auto& x : r.unexplained) EXPECT_EQ(x.axis.rfind("gyro.z", 0), 0u) << x.axis << " is at its noise";
+}
+
+// An accelerometer scale factor that moves with the die's temperature rate (a gradient across the die while it heats
+// or cools bends the suspension): accel.x reads c·f_x·Ṫ. No catalog effect has it (temp_rate is a bias in Ṫ,
+// scale_temp a scale in T), so the axis is named unexplained, and its signature reads the input times Ṫ (stop 64;
+// before, unseen13's tdot_scale read "f_x from 259 s on"). Hand-made log: the two-axis tilts, the die's
+// temperature piecewise linear through cooling and heating legs.
+TEST(DiagnosisPipeline, AScaleMovingWithTheTemperatureRateIsNamedByTheInputTimesTheRate) {
+  const double fs = 100.0, dwell_s = 8.0, c_per_C_s = 4e-3;
+  const std::vector<Pose> poses = two_axis_tilts();
+  const std::vector<double> knots_C = {25.0, 5.0, 45.0, 10.0, 40.0};
+  const int n_dwell = 5 * static_cast<int>(poses.size());
+  const int n = static_cast<int>(n_dwell * dwell_s * fs);
+  const double legs = static_cast<double>(knots_C.size() - 1), leg_s = n / fs / legs;
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> n01;
+  std::vector<Sample> log;
+  for (int i = 0; i < n; ++i) {
+    const int k = static_cast<int>(i / (dwell_s * fs));
+    Sample s = referenced_sample(i / fs, k);
+    const double x = legs * i / n;
+    const auto leg = static_cast<std::size_t>(std::min(static_cast<int>(x), static_cast<int>(legs) - 1));
+    s.temp_C = knots_C[leg] + (x - static_cast<double>(leg)) * (knots_C[leg + 1] - knots_C[leg]);
+    const double Tdot_C_s = (knots_C[leg + 1] - knots_C[leg]) / leg_s;
+    const Pose& f = poses[static_cast<std::size_t>(k) % poses.size()];
+    for (int j = 0; j < 3; ++j) {
+      s.f[j] = f[static_cast<std::size_t>(j)];
+      s.y[j] = s.f[j] + 1e-3 * n01(rng);
+      s.y[3 + j] = 5e-4 * n01(rng);
+    }
+    s.y[0] += c_per_C_s * s.f[0] * Tdot_C_s;
+    log.push_back(s);
+  }
+  VectorSource src(log);
+  const DiagnosisResult r = diagnose(src, basic_model(), Options{});
+  const Unexplained* u = nullptr;
+  for (const auto& x : r.unexplained)
+    if (x.axis == "accel.x") u = &x;
+  ASSERT_NE(u, nullptr) << "accel.x must be named unexplained";
+  ASSERT_FALSE(u->signature.empty());
+  EXPECT_EQ(u->signature[0].input, "f_x*Tdot");
+  EXPECT_GT(std::fabs(u->signature[0].correlation), 0.8);
+  for (const auto& x : r.unexplained) EXPECT_EQ(x.axis, "accel.x") << x.axis << " is at its noise";
 }
 
 // A gyro whose y and z axes carry a true scale nonlinearity (k2 ω², k3 ω³) and whose x axis carries a bias in the

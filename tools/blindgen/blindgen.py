@@ -658,6 +658,14 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
         k = AX.index(o['input_axis'])  # package tilts by c |w|^2 about an axis, so the axis reads another axis'
         return o['coefficient'] * np.sum(w_imu ** 2, axis=1) * f_imu[:, k]  # specific force times |w|^2 (the
         # catalog's size_effect is |w|^2 alone, g_sensitivity f alone)
+    if kind == 'tdot_scale':     # a scale factor that moves with the die's temperature RATE (a gradient across the
+        u = f_imu if o['sensor'] == 'accel' else w_imu  # die while it heats or cools bends the sense structure): the
+        return o['per_unit_per_C_s'] * Tdot * u[:, j]  # catalog's temp_rate is a bias in Tdot, its scale_temp in T
+    if kind == 'angle_window':   # a bias while the outer axis stands within a window of angles (a connector or a
+        d = np.mod(ang[:, 2] - o['center_rad'] + np.pi, 2 * np.pi) - np.pi  # cable contact intermittent there):
+        return o['amplitude'] * (np.abs(d) < o['half_width_rad'])  # a step in angle, no harmonic of it
+    if kind == 'stuck_bit':      # one bit of the output word stuck at 0: acts on the counts (output stage below);
+        return np.zeros(len(t))  # here nothing is added to the input-side signal
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -799,8 +807,23 @@ def generate(case, out_dir, fmt='csv'):
         for o in case.get('ooc', []):
             if o['sensor'] == s:
                 sig = np.zeros_like(ys)
-                sig[:, AX.index(o['axis'])] = ooc_signal(o, t, ang_s, w_i, f_i, die, Tdot)
-                ys += sig
+                if o['kind'] == 'stuck_bit':
+                    # acts on the counts below; its SNR is taken on what it does on average to the noisy samples
+                    # (white noise dithers the bit: a bit well under the sample noise is only a constant bias)
+                    jj = AX.index(o['axis'])
+                    lsb_s = float(sensor[s]['lsb'])
+                    if o['bit'] is None:
+                        o['bit'] = int(max(0, round(math.log2(abs(o.pop('amplitude')) / lsb_s))))
+                    sd = e.get('white_noise', {}).get(o['axis'], 0.0) * math.sqrt(fs)
+                    rdraw = np.random.default_rng(seed + 7)
+                    acc_ = np.zeros(len(t))
+                    for _ in range(8):
+                        c0 = np.round((ys[:, jj] + sd * rdraw.standard_normal(len(t))) / lsb_s).astype(np.int64)
+                        acc_ += ((c0 & ~(1 << o['bit'])) - c0) * lsb_s
+                    sig[:, jj] = acc_ / 8
+                else:
+                    sig[:, AX.index(o['axis'])] = ooc_signal(o, t, ang_s, w_i, f_i, die, Tdot)
+                    ys += sig
                 if case.get('score_snr', True):
                     # what of the out-of-catalog term the base model cannot absorb: below DETECTABLE_SNR no
                     # diagnosis can be asked to name its axis (battery.py scores ooc cases over both)
@@ -859,6 +882,9 @@ def generate(case, out_dir, fmt='csv'):
             lim_hi = min(2 ** (bits - 1) - 1, math.floor(rng_ / lsb))
             lim_lo = max(-2 ** (bits - 1), -math.floor(rng_ / lsb))
             cs[:, j] = np.clip(c, lim_lo, lim_hi).astype(np.int64)
+            for o in case.get('ooc', []):
+                if o['sensor'] == s and o['axis'] == aj and o['kind'] == 'stuck_bit':
+                    cs[:, j] &= ~(1 << o['bit'])  # two's complement: the bit reads 0 in either sign
         counts[s] = cs
 
     sim = case.get('scenario', {})
@@ -1144,6 +1170,10 @@ OOC_KINDS_UNSEEN11 = ['inl_periodic', 'temp_saw', 'axis_skew']
 # the die's temperature last moved, a bias locked to the table motor's rotor (n lobes per turn), an accel reading
 # another axis' specific force times the squared rate (the mount flexing under the centripetal load)
 OOC_KINDS_UNSEEN12 = ['scale_temp_hyst', 'cogging', 'mount_flex']
+# written at stop 64 and first run on the stop-63 binary (suite 'unseen13'): a scale factor that moves with the die's
+# temperature rate, a bias while the outer axis stands within a window of angles (an intermittent contact), one bit
+# of the output word stuck at 0
+OOC_KINDS_UNSEEN13 = ['tdot_scale', 'angle_window', 'stuck_bit']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g',
                  'range_switch')
@@ -1252,6 +1282,14 @@ def ooc_params(ooc_kind, amp, rng, scenario):
                     gate_C_per_s=0.2 * scenario['slew_C_per_min'] / 60.0)
     if ooc_kind == 'cogging':
         return dict(amplitude=amp, lobes=int(rng.integers(4, 13)), phase_rad=float(rng.uniform(0, 2 * np.pi)))
+    if ooc_kind == 'tdot_scale':  # amp at the largest input (1 g, or the top rate) while the die moves at the chamber's
+        return dict(per_unit_per_C_s=None, amplitude=amp, _top_rate=math.radians(max(scenario['rates_dps'])),  # slew
+                    _tdot_C_s=scenario['slew_C_per_min'] / 60.0)
+    if ooc_kind == 'angle_window':
+        return dict(amplitude=amp, center_rad=float(rng.uniform(-np.pi, np.pi)),
+                    half_width_rad=math.radians(float(rng.uniform(15, 60))))
+    if ooc_kind == 'stuck_bit':  # the bit whose weight is nearest amp (filled once the sensor's LSB is known)
+        return dict(bit=None, amplitude=amp)
     if ooc_kind == 'mount_flex':  # amp at the top rate and 1 g along the input axis
         return dict(coefficient=amp / (9.80665 * math.radians(max(scenario['rates_dps'])) ** 2), input_axis=None)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
@@ -1280,6 +1318,9 @@ def ooc_fill_axis(o, rng):
         o['per_unit'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
     if o['kind'] == 'mount_flex':
         o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
+    if o['kind'] == 'tdot_scale':
+        top = o.pop('_top_rate')
+        o['per_unit_per_C_s'] = o.pop('amplitude') / ((9.80665 if o['sensor'] == 'accel' else top) * o.pop('_tdot_C_s'))
     if o['kind'] == 'scale_bump':
         top = o.pop('_top_rate')
         o['per_unit'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
