@@ -84,7 +84,8 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
   // Every GLS fit of the diagnosis runs this filter over a whole log's blocks (a 1 h, 1 kHz log: thousands of calls
   // of 3000+ blocks), so the per-block work is kept to the arithmetic: the GM states' transition and block-mean
   // factors are recomputed only where the spacing or the duration changes (both repeat from block to block), and
-  // no temporaries are allocated per block.
+  // the per-block vectors are allocated once. (The rank-one update of P still builds its NS × NS product: written
+  // otherwise it rounds differently.)
   double dt_last = -1.0, d_last = -1.0;
   Eigen::VectorXd h_gm(G), R_gm(G);
   for (int i = 0; i < n; ++i) {
