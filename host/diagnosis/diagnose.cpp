@@ -7,6 +7,7 @@
 // noise_model.*, the Allan and signature statistics in stats.*, the reference-step test and lag probe in
 // step_lag.*, the rate table's axis errors in table_errors.*.
 #include "host/diagnosis/diagnose.h"
+#include "host/diagnosis/dropouts.h"
 #include "host/diagnosis/glitches.h"
 #include "host/diagnosis/output_bits.h"
 #include "host/diagnosis/step_lag.h"
@@ -653,8 +654,13 @@ struct Pass1 {
   long long ndz = 0;
   long long n_used = 0;
   int n_units = 0;
-  std::array<OutputBitCounter, kNumAxes> bits;  // every row's output word (StuckBits)
+  std::array<OutputBitCounter, kNumAxes> bits;  // every row's output word (StuckBits), where counted
 };
+
+// The stuck bits of a log's output words (output_bits.h). They depend on the codes alone, not on the shift, the
+// mount rotation or the candidates of a re-run: the first diagnose_core of a diagnosis counts them and the re-runs
+// take its result (counting every row again was 6 % of diagnosis_bench at stop 64).
+using OutputWords = std::array<StuckBits, kNumAxes>;
 
 // The static dwells' scatter while the die's temperature moves against while it holds (TempMotionNoise, diagnose.h):
 // at each τ both records reach, the ratio of the Allan variances and its z on the log scale (ln ratio has variance
@@ -690,7 +696,7 @@ TempMotionNoise compare_temp_motion(const std::vector<AllanAccumulator::Point>& 
 }
 
 Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const std::vector<ParamId> ids[2],
-                bool want_regressors, const TimeShift shift[2] = nullptr) {
+                bool want_regressors, const TimeShift shift[2] = nullptr, bool count_words = false) {
   const TimeShift none[2];
   if (!shift) shift = none;
   const double dur_all = p0.t_last - p0.t_first;
@@ -712,7 +718,7 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   table_group.n_group = std::clamp(static_cast<int>(std::lround(p0.fs / 100.0)), 1, kDerivGroup);
   const bool mount = opt.mount_rotation_rad[0] != 0.0 || opt.mount_rotation_rad[1] != 0.0 || opt.mount_rotation_rad[2] != 0.0;
   Pass1 out;
-  for (int a = 0; a < kNumAxes; ++a) {
+  for (int a = 0; a < kNumAxes && count_words; ++a) {
     const double lsb = opt.output_lsb[static_cast<std::size_t>(a / 3)];
     out.bits[static_cast<std::size_t>(a)] = OutputBitCounter(lsb > 0 ? lsb : p0.out_step[static_cast<std::size_t>(a)]);
   }
@@ -1102,7 +1108,8 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   have_cur = src.next(cur);
   if (have_cur) have_next = src.next(nxt);
   while (have_cur) {
-    for (int a = 0; a < kNumAxes; ++a) out.bits[static_cast<std::size_t>(a)].add(cur.y[a]);
+    if (count_words)
+      for (int a = 0; a < kNumAxes; ++a) out.bits[static_cast<std::size_t>(a)].add(cur.y[a]);
     const double T_smooth_C = std::isnan(cur.temp_C) ? cur.temp_C : temp_lp.update(cur.temp_C, cur.t_s);
     double d;
     if (profile && k_default >= 0) {
@@ -1873,7 +1880,9 @@ std::array<std::vector<AllanAccumulator::Point>, kNumAxes> static_allan(SampleSo
 }
 
 namespace {
-DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const Options& opt, const TimeShift shift[2]) {
+// words: the stuck bits an earlier run of the same diagnosis counted (OutputWords); null counts them here.
+DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const Options& opt, const TimeShift shift[2],
+                              const OutputWords* words) {
   FixtureCorrectedSource fixture_src(src_in, opt);
   SampleSource& src = fixture_src.active() ? static_cast<SampleSource&>(fixture_src) : src_in;
   DiagnosisResult R;
@@ -1908,7 +1917,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     R.warnings.push_back(buf);
   }
   std::vector<ParamId> ids[2] = {sensor_params(Sensor::kAccel), sensor_params(Sensor::kGyro)};
-  Pass1 p1 = run_pass1(src, p0, o, ids, true, shift);
+  Pass1 p1 = run_pass1(src, p0, o, ids, true, shift, words == nullptr);
   std::vector<Block>& blocks = p1.blocks;
   R.n_used = p1.n_used;
   R.n_blocks = static_cast<int>(blocks.size());
@@ -1926,7 +1935,10 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       R.noise[ua].terms.N = std::sqrt(var / p0.fs);
     }
   }
-  for (int a = 0; a < kNumAxes; ++a) R.stuck_bits[static_cast<std::size_t>(a)] = p1.bits[static_cast<std::size_t>(a)].finish();
+  if (words)
+    R.stuck_bits = *words;
+  else
+    for (int a = 0; a < kNumAxes; ++a) R.stuck_bits[static_cast<std::size_t>(a)] = p1.bits[static_cast<std::size_t>(a)].finish();
   for (int a = 0; a < kNumAxes; ++a)
     R.temp_motion[static_cast<std::size_t>(a)] = compare_temp_motion(p1.allan_moving[static_cast<std::size_t>(a)].points(),
                                                                       p1.allan_holding[static_cast<std::size_t>(a)].points(), o);
@@ -4758,9 +4770,10 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
 // estimated shifted time (ShiftedReference) and the whole diagnosis re-run with the timing pair kept as a
 // linear correction around the shift; repeated until the correction is below a tenth of its σ.
 namespace {
-DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const Options& opt) {
+DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const Options& opt, const OutputWords* words_seen = nullptr) {
   TimeShift shift[2];
-  DiagnosisResult first = diagnose_core(src, base, opt, shift);
+  DiagnosisResult first = diagnose_core(src, base, opt, shift, words_seen);
+  const OutputWords words = first.stuck_bits;  // every re-run below reads the same codes
   DiagnosisResult R = first;
   Options o = opt;
   // A lag of a sample or more, read off the steps of the reference, seeds the re-evaluation (the linearised
@@ -4834,7 +4847,7 @@ DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const O
     }
     if (seeded || force_linear[0] || force_linear[1]) {
       set_forced(o);
-      R = diagnose_core(src, base, o, shift);
+      R = diagnose_core(src, base, o, shift, &words);
       R.timing_iterations = seeded ? 1 : 0;
       it0 = seeded ? 2 : 1;
     }
@@ -4898,7 +4911,7 @@ DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const O
     for (int si = 0; si < 2; ++si) shift[si].step_margin_s = next[si].step_margin_s;
     set_forced(o);
     const int ti = R.timing_iterations;
-    R = diagnose_core(src, base, o, shift);
+    R = diagnose_core(src, base, o, shift, &words);
     R.timing_iterations = dropped && !moved ? ti : it;
     if (!moved && !dropped) break;
   }
@@ -4919,7 +4932,7 @@ DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const O
       if (!fe.valid || !(chi2_sf(fe.chi2, fe.n) < (it == 0 ? 1e-3 : 1e-2))) break;
       for (int m = 0; m < fe.n; ++m) o.fixture_error[static_cast<std::size_t>(m / 3)].part(m % 3) += fe.delta_rad[static_cast<std::size_t>(m)];
       const int ti = R.timing_iterations;
-      R = diagnose_core(src, base, o, shift);
+      R = diagnose_core(src, base, o, shift, &words);
       R.timing_iterations = ti;
       fixture_iterations = it + 1;
     }
@@ -4950,7 +4963,7 @@ DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const O
       o.mount_rotation_rad = rot;
       if (!R0) R0 = R;
       const int ti = R.timing_iterations;
-      R = diagnose_core(src, base, o, shift);
+      R = diagnose_core(src, base, o, shift, &words);
       R.timing_iterations = ti;
       R.mount_iterations = it + 1;
     }
@@ -5012,11 +5025,11 @@ DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const O
         of.wander_K_B = ow.wander_K_B;
         of.wander_B_floor = ow.wander_B_floor;
         const TimeShift none[2];
-        first = diagnose_core(src, base, of, none);
+        first = diagnose_core(src, base, of, none, &words);
       }
       const int ti = R.timing_iterations, mi = R.mount_iterations;
       const auto mr = R.mount_rotation_rad;
-      R = diagnose_core(src, base, ow, shift);
+      R = diagnose_core(src, base, ow, shift, &words);
       R.timing_iterations = ti;
       R.mount_iterations = mi;
       R.mount_rotation_rad = mr;
@@ -5158,12 +5171,14 @@ std::array<bool, 2> check_axis_timing(DiagnosisResult& r, const Options& opt) {
   return withdraw;
 }
 
-// Glitches first (glitches.h): every pass, the timing probes included, reads the log with its isolated single-sample
-// outliers replaced. The filter searches while pass 0 (the first to read) streams the log through it, with a
-// look-ahead of about a thousand rows, and replays its fixes on every later pass; an axis that held any is named,
-// with what the rest of its residual says.
+// Dropouts and glitches first (dropouts.h, glitches.h): every pass, the timing probes included, reads the log with its
+// runs of failed reads bridged and its isolated single-sample outliers replaced (dropouts first: a single row reading
+// 0 far from its neighbours is a failed read, not a glitch of another value). Each filter searches while pass 0
+// (the first to read) streams the log through it, with a look-ahead (a run's length; about a thousand rows), and
+// replays its fixes on every later pass; an axis that held any is named, with what the rest of its residual says.
 DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options& opt) {
-  GlitchFilterSource clean(src, opt.glitch_z);
+  DropoutFilterSource bridged(src, opt.output_lsb, opt.dropouts);
+  GlitchFilterSource clean(bridged, opt.glitch_z);
   DiagnosisResult R = diagnose_timed(clean, base, opt);
   // A timing one axis alone carries (AxisTiming): without the triad's timing where the other two show none.
   std::array<bool, 2> withdraw = check_axis_timing(R, opt);
@@ -5172,7 +5187,8 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     for (int si = 0; si < 2; ++si)
       if (withdraw[static_cast<std::size_t>(si)]) o.excluded.push_back({static_cast<Sensor>(si), Effect::kTiming});
     const std::array<AxisTiming, kNumAxes> seen = R.axis_timing;
-    R = diagnose_timed(clean, base, o);
+    const OutputWords words = R.stuck_bits;
+    R = diagnose_timed(clean, base, o, &words);
     R.axis_timing = seen;
     // A timing the reference steps force (a shift of a sample or more: diagnose_timed) stays whatever the candidates.
     for (int si = 0; si < 2; ++si)
@@ -5188,6 +5204,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       }
   }
   R.glitches = clean.summary();
+  R.dropouts = bridged.summary();
   // An axis named on a basis of its own; take_over: the basis replaces the one that named it already (the held-out
   // χ² or the whole log's structure: what the axis' own latency explains).
   auto name_axis = [&R](int a, const char* basis, bool take_over) {
@@ -5207,6 +5224,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
     if (R.axis_timing[ua].odd) name_axis(a, "axis_timing", true);
     if (R.temp_motion[ua].flagged) name_axis(a, "temp_motion", false);  // colored "noise" only while T moves
     if (R.glitches[ua].count > 0) name_axis(a, "glitches", false);
+    if (R.dropouts[ua].runs > 0) name_axis(a, "dropouts", false);
     if (R.stuck_bits[ua].bit >= 0) name_axis(a, "stuck_bit", true);  // the word, not the physics: it leads
   }
   return R;

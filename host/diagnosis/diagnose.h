@@ -258,6 +258,9 @@ struct Options {
   // on the nearest line through their neighbours before anything else reads the log, and name their axis
   // (Unexplained basis "glitches"). 12: below 10⁻³⁰ false alarms per row under Gaussian noise. 0 turns it off.
   double glitch_z = 12.0;
+  // Runs of rows reading a failed read's word (0, or −1 LSB) far from their neighbours are bridged before the fit and
+  // the axis named (dropouts.h); false leaves them in the log.
+  bool dropouts = true;
   // An axis whose static dwells scatter at least temp_motion_ratio times more (Allan variance) while the die's
   // temperature moves than while it holds, at z ≥ temp_motion_z on the log scale, is named (TempMotionNoise,
   // Unexplained basis "temp_motion"). The edf behind z is the white-noise one, larger than a colored record's,
@@ -412,6 +415,19 @@ struct GlitchSummary {
   static constexpr std::size_t kListed = 20;
 };
 
+// Runs of rows where an axis read the word a failed read returns (0, or −1 LSB) while the rows either side stand far
+// from it (dropouts.h): found, bridged by the line between their neighbours before the fit, and the axis named.
+struct DropoutSummary {
+  long long runs = 0;         // runs found and bridged
+  long long rows = 0;         // rows in them
+  int longest = 0;            // rows in the longest run
+  double value = 0;           // the value the first run read, SI (0, or −LSB)
+  double min_z = 0;           // the nearest any run's neighbours came to it, in σ of a row (≥ kMinZ)
+  double first_t_s = 0, last_t_s = 0;  // the first and the last run's start
+  std::vector<double> t_s;    // the first kListed runs' start times (s)
+  static constexpr std::size_t kListed = 20;
+};
+
 // A bit of an axis' output word that never changes while the bit above it does across neighbouring codes: a bit stuck
 // at 0 or 1 in the converter or on the bus (missing codes), found from the codes y / step of a quantised output
 // (output_bits.h says why a healthy output cannot show it). No catalog effect and no noise has that shape: each
@@ -527,6 +543,7 @@ struct DiagnosisResult {
   };
   std::array<Wander, kNumAxes> wander{};
   std::array<GlitchSummary, kNumAxes> glitches{};
+  std::array<DropoutSummary, kNumAxes> dropouts{};
   std::array<StuckBits, kNumAxes> stuck_bits{};
   std::array<TempMotionNoise, kNumAxes> temp_motion{};
   std::array<AxisTiming, kNumAxes> axis_timing{};

@@ -91,7 +91,7 @@ void GlitchFilterSource::judge(int a, bool all) {
     const double s_used = std::max(sigma, local);
     const double bar = std::max(z_ * s_used, floor);
     if (!(std::fabs(e.d) > bar && std::fabs(e.e_prev) < 0.5 * bar && std::fabs(e.e_next) < 0.5 * bar)) continue;
-    fixes_.push_back({e.row, a, e.fix});
+    fixes_.push(e.row, a, e.fix);
     // Not handed on yet (ready_before() stops at this axis' first unjudged row): fixed where it waits.
     ahead_at(static_cast<std::size_t>(e.row - emitted_)).y[a] = e.fix;
     if (trace_)
@@ -179,12 +179,13 @@ long long GlitchFilterSource::ready_before() const {
 
 void GlitchFilterSource::finish_search() {
   for (int a = 0; a < kNumAxes; ++a) judge(a, true);  // the last, shorter stretch
-  std::sort(fixes_.begin(), fixes_.end(), [](const Fix& x, const Fix& y) { return x.row != y.row ? x.row < y.row : x.axis < y.axis; });
-  for (std::size_t i = 0; i < fixes_.size();) {
+  fixes_.sort();
+  const std::vector<RowFixes::Fix>& fixes = fixes_.all();
+  for (std::size_t i = 0; i < fixes.size();) {
     std::size_t j = i;
-    while (j < fixes_.size() && fixes_[j].row == fixes_[i].row) ++j;
+    while (j < fixes.size() && fixes[j].row == fixes[i].row) ++j;
     if (j - i > 1)
-      for (std::size_t k = i; k < j; ++k) ++summary_[static_cast<std::size_t>(fixes_[k].axis)].shared;
+      for (std::size_t k = i; k < j; ++k) ++summary_[static_cast<std::size_t>(fixes[k].axis)].shared;
     i = j;
   }
   for (int a = 0; a < kNumAxes; ++a)
@@ -195,19 +196,14 @@ void GlitchFilterSource::finish_search() {
 
 void GlitchFilterSource::rewind() {
   inner_.rewind();
-  row_ = 0;
-  next_fix_ = 0;
+  fixes_.rewind();
   if (!searched_) reset_search();  // a pass left before the end: search again from the start
 }
 
 bool GlitchFilterSource::next(Sample& s) {
   if (searched_) {  // replay
     if (!inner_.next(s)) return false;
-    while (next_fix_ < fixes_.size() && fixes_[next_fix_].row == row_) {
-      s.y[fixes_[next_fix_].axis] = fixes_[next_fix_].value;
-      ++next_fix_;
-    }
-    ++row_;
+    fixes_.apply(s);
     return true;
   }
   // Search: read ahead until the oldest waiting row is judged on every axis.

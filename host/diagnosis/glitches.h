@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "host/diagnosis/diagnose.h"
+#include "host/diagnosis/row_fixes.h"
 
 namespace imuforge::diagnosis {
 
@@ -76,11 +77,6 @@ class GlitchFilterSource : public SampleSource {
     long long row;
     double t_s, d, e_prev, e_next, fix;
     double r1;  // against its direct neighbours alone: what σ is measured on (√1.5 σ under white noise; |d| ≤ |r1|)
-  };
-  struct Fix {
-    long long row;
-    int axis;
-    double value;
   };
   static constexpr int kRing = 7;
 
@@ -119,10 +115,8 @@ class GlitchFilterSource : public SampleSource {
   bool inner_done_ = false;
   bool trace_ = false;
   // The result, and the replay.
-  std::vector<Fix> fixes_;  // ascending in (row, axis) once searched_
+  RowFixes fixes_;  // ascending in (row, axis) once searched_
   std::array<GlitchSummary, kNumAxes> summary_{};
-  long long row_ = 0;
-  std::size_t next_fix_ = 0;
 };
 
 }  // namespace imuforge::diagnosis

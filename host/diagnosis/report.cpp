@@ -144,7 +144,7 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     const std::string sensor = a < 3 ? "accel" : "gyro";
     const Unexplained* ue = nullptr;
     for (const auto& x : r.unexplained)
-      if (x.axis == an && x.basis != "glitches") ue = &x;
+      if (x.axis == an && x.basis != "glitches" && x.basis != "dropouts") ue = &x;
     std::string line = an + ": ";
     // Glitches lead: they are what the log shows beyond the model whatever the rest says, and the rest was judged
     // with them replaced (glitches.h).
@@ -163,6 +163,19 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
                                              what_alone + ")") +
               ", not the sensor's physics; replaced by the line through " + (gl.count > 1 ? "their" : "its") + " neighbours before the fit; with " +
               (gl.count > 1 ? "them" : "it") + " replaced, ";
+    }
+    // Dropouts lead likewise (dropouts.h).
+    const auto& dr = r.dropouts[u];
+    if (dr.runs > 0) {
+      const bool many = dr.runs > 1;
+      line += "reads exactly " + fmt("%.6g", dr.value) + " " + unit_of(a) + " in " + std::to_string(dr.runs) + " run" + (many ? "s" : "") +
+              " of " + (many ? "up to " : "") + std::to_string(dr.longest) + " row" + (dr.longest > 1 ? "s" : "") +
+              (many ? " (" + std::to_string(dr.rows) + " in all, between " + fmt("%.1f", dr.first_t_s) + " and " + fmt("%.1f", dr.last_t_s) + " s)"
+                    : " (at " + fmt("%.1f", dr.first_t_s) + " s)") +
+              " while the rows either side stand " + (many ? "at least " : "") + fmt("%.0f", dr.min_z) +
+              " sigma (of a row's noise) away from it: reads that failed (a data register read while it was rewritten, a cleared or "
+              "floating bus, a frame the logger filled), not the sensor's physics; bridged by the line between " +
+              (many ? "their" : "its") + " neighbours before the fit; with " + (many ? "them" : "it") + " bridged, ";
     }
     if (ue && ue->basis == "stuck_bit") {
       const auto& sb = r.stuck_bits[u];
@@ -443,6 +456,14 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                         {"last_t_s", num(g.last_t_s)},  {"t_s", g.t_s}};
   }
   j["glitches"] = gl;
+  nlohmann::json drj = nlohmann::json::object();
+  for (int a = 0; a < kNumAxes; ++a) {
+    const auto& d = r.dropouts[static_cast<std::size_t>(a)];
+    if (d.runs == 0) continue;
+    drj[axis_name(a)] = {{"runs", d.runs},           {"rows", d.rows},           {"longest", d.longest}, {"value", num(d.value)},
+                         {"min_z", num(d.min_z)}, {"first_t_s", num(d.first_t_s)}, {"last_t_s", num(d.last_t_s)}, {"t_s", d.t_s}};
+  }
+  j["dropouts"] = drj;
   // Every quantised axis (its output step known), stuck bit or not.
   nlohmann::json sbj = nlohmann::json::object();
   for (int a = 0; a < kNumAxes; ++a) {

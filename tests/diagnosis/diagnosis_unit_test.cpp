@@ -12,6 +12,7 @@
 #include <random>
 #include <set>
 
+#include "host/diagnosis/dropouts.h"
 #include "host/diagnosis/glitches.h"
 #include "host/diagnosis/noise_model.h"
 #include "host/diagnosis/output_bits.h"
@@ -909,6 +910,48 @@ TEST(DiagnosisStuckBits, HealthyWordsShowNoneAndAForcedBitIsFound) {
   EXPECT_EQ(none.finish().rows, 0);
 }
 
+// The bit-sliced counts against a plain count of every changed bit: noise of a few counts to thousands, jumps between
+// clusters, codes of either sign up to 2^40, runs of equal codes, and more rows than a flush holds (65535).
+TEST(DiagnosisStuckBits, BitSlicedCountsAreThePlainCounts) {
+  std::mt19937_64 rng(31);
+  std::normal_distribution<double> n01;
+  std::uniform_int_distribution<int> pick(0, 99);
+  const double lsb = 0.5;
+  OutputBitCounter c(lsb);
+  std::array<long long, 64> tog{}, near{};
+  std::int64_t prev = 0;
+  double level = 0;
+  const int rows = 200000;
+  for (int i = 0; i < rows; ++i) {
+    const int p = pick(rng);
+    if (p == 0) level = std::ldexp(n01(rng), 40);                        // a far jump, either sign
+    else if (p < 5) level += 3000.0 * n01(rng);                          // a pose change
+    const double sigma = p % 3 == 0 ? 0.2 : p % 3 == 1 ? 4.0 : 900.0;   // repeated codes, a few counts, many
+    const auto code = static_cast<std::int64_t>(std::llround(level + sigma * n01(rng)));
+    c.add(static_cast<double>(code) * lsb);
+    if (i > 0) {
+      const std::uint64_t ch = static_cast<std::uint64_t>(code) ^ static_cast<std::uint64_t>(prev);
+      const std::int64_t d = code - prev;
+      const std::uint64_t ad = static_cast<std::uint64_t>(d < 0 ? -d : d);
+      for (int b = 0; b < 64; ++b)
+        if ((ch >> b) & 1u) {
+          ++tog[static_cast<std::size_t>(b)];
+          if (b < 63 && ad < (std::uint64_t{1} << b)) ++near[static_cast<std::size_t>(b)];
+        }
+    }
+    prev = code;
+  }
+  long long total = 0;
+  for (int b = 0; b < 64; ++b) {
+    EXPECT_EQ(c.toggles(b), tog[static_cast<std::size_t>(b)]) << "bit " << b;
+    EXPECT_EQ(c.near_toggles(b), near[static_cast<std::size_t>(b)]) << "bit " << b;
+    total += tog[static_cast<std::size_t>(b)];
+  }
+  EXPECT_GT(tog[0], 65535) << "the planes were flushed";
+  EXPECT_GT(near[45], 0) << "near changes of a high bit were counted";
+  EXPECT_GT(total, 500000);
+}
+
 // The pipeline names a stuck bit's axis on that basis and selects nothing for it: a consumer-like gyro whose bit 4 is
 // stuck at 0 on static tilts read as a flicker 13x the sensor's on blindgen's stuck_bit-2 (stop 64).
 TEST(DiagnosisPipeline, AStuckBitIsNamedAsTheWordNotThePhysics) {
@@ -1189,6 +1232,126 @@ TEST(DiagnosisPipeline, GlitchesNameTheirAxisAndLeaveTheFitAsTheCleanLogs) {
   VectorSource c_src(glitched);
   const DiagnosisResult raw = diagnose(c_src, basic_model(), off);
   EXPECT_GT(raw.stoch[1].N, 1.05 * clean.stoch[1].N);
+}
+
+// Dropouts (dropouts.h): runs of rows reading a failed read's word (0, −1 LSB) far from their neighbours are bridged
+// on the line between them, on the search pass and on the replay alike, and nothing else is touched: a gyro at rest
+// reading 0 honestly, a consumer accelerometer's noise reading 0 at 2.5 σ from its level, a sine through zero, a
+// coarse output that sits at 0, an outage longer than kMaxRun rows.
+TEST(DiagnosisDropouts, FailedReadsAreBridgedAndHealthyZerosLeftAlone) {
+  std::mt19937_64 rng(65);
+  std::normal_distribution<double> n01;
+  const double a_lsb = 6e-4, g_lsb = 1.33e-4;
+  const int n = 60000;
+  auto q = [](double v, double lsb) { return lsb * std::round(v / lsb); };
+  std::vector<Sample> log(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    Sample& s = log[static_cast<std::size_t>(i)];
+    s.t_s = 0.01 * i;
+    s.has_ref = true;
+    s.segment = i / 6000;
+    s.y[0] = q(9.81 + 0.004 * n01(rng), a_lsb);                                  // 1 g, quiet: failed reads of 0
+    s.y[1] = q(-0.1 + 0.039 * n01(rng), a_lsb);                                  // 2.5 σ from 0
+    s.y[2] = q(3.0 * std::sin(2.0 * M_PI * s.t_s / 7.0) + 0.004 * n01(rng), a_lsb);  // through 0
+    s.y[3] = q(2e-4 + 8.7e-4 * n01(rng), g_lsb);                                 // at rest: reads 0 one row in seven
+    s.y[4] = q(0.5 + 1e-4 * n01(rng), g_lsb);                                    // turning: failed reads of 0 and −1 LSB
+    s.y[5] = q(1e-4 * n01(rng), 5.0 * g_lsb);                                    // coarse, at 0
+  }
+  struct Run {
+    int axis, start, len;
+    double v;
+  };
+  const std::vector<Run> runs = {{0, 1000, 1, 0.0}, {0, 5000, 3, 0.0}, {0, 20000, 12, 0.0}, {4, 30000, 5, -g_lsb}, {4, 40000, 1, 0.0}};
+  std::vector<Sample> bad = log;
+  for (const Run& r : runs)
+    for (int k = 0; k < r.len; ++k) bad[static_cast<std::size_t>(r.start + k)].y[r.axis] = r.v;
+  const int outage = 50000, outage_len = DropoutFilterSource::kMaxRun + 5;
+  for (int k = 0; k < outage_len; ++k) bad[static_cast<std::size_t>(outage + k)].y[0] = 0.0;
+  VectorSource clean_src(log), bad_src(bad);
+  DropoutFilterSource clean(clean_src, {a_lsb, g_lsb}), f(bad_src, {a_lsb, g_lsb});
+  for (int pass = 0; pass < 2; ++pass) {  // the search, then the replay
+    clean.rewind();
+    f.rewind();
+    Sample a, b;
+    int i = 0;
+    while (f.next(b)) {
+      ASSERT_TRUE(clean.next(a));
+      const auto ui = static_cast<std::size_t>(i);
+      for (int ax = 0; ax < kNumAxes; ++ax) {
+        EXPECT_EQ(a.y[ax], log[ui].y[ax]) << "clean row " << i << " axis " << ax;
+        double want = bad[ui].y[ax];
+        for (const Run& r : runs)
+          if (r.axis == ax && i >= r.start && i < r.start + r.len) {
+            const double y0 = bad[static_cast<std::size_t>(r.start - 1)].y[ax], y1 = bad[static_cast<std::size_t>(r.start + r.len)].y[ax];
+            want = y0 + (y1 - y0) * (i - r.start + 1) / (r.len + 1.0);
+          }
+        EXPECT_DOUBLE_EQ(b.y[ax], want) << "pass " << pass << " row " << i << " axis " << ax;
+      }
+      ++i;
+    }
+    EXPECT_EQ(i, n);
+    EXPECT_FALSE(clean.next(a));
+  }
+  for (int ax = 0; ax < kNumAxes; ++ax) EXPECT_EQ(clean.summary()[static_cast<std::size_t>(ax)].runs, 0) << axis_name(ax);
+  const auto& S = f.summary();
+  EXPECT_EQ(S[0].runs, 3);
+  EXPECT_EQ(S[0].rows, 16);
+  EXPECT_EQ(S[0].longest, 12);
+  EXPECT_EQ(S[0].value, 0.0);
+  EXPECT_NEAR(S[0].first_t_s, 10.0, 1e-9);
+  EXPECT_EQ(S[4].runs, 2);
+  EXPECT_EQ(S[4].rows, 6);
+  EXPECT_EQ(S[4].value, -g_lsb) << "the first run's value";
+  for (int ax : {1, 2, 3, 5}) EXPECT_EQ(S[static_cast<std::size_t>(ax)].runs, 0) << axis_name(ax);
+  // Off: the log as it is.
+  VectorSource off_src(bad);
+  DropoutFilterSource off(off_src, {a_lsb, g_lsb}, false);
+  Sample b;
+  for (int i = 0; off.next(b); ++i) ASSERT_EQ(b.y[0], bad[static_cast<std::size_t>(i)].y[0]);
+}
+
+// The pipeline bridges an accelerometer's failed reads, names the axis on that basis and keeps the clean log's noise
+// model; without the bridge the same rows inflate the noise (blindgen's `zero_burst`: "steps from segment to segment").
+TEST(DiagnosisPipeline, DropoutsAreBridgedAndNameTheirAxis) {
+  std::vector<Sample> clean_log;
+  {
+    std::mt19937_64 rng(66);
+    clean_log = static_pose_log(two_axis_tilts(), 3, 8.0, [&](int, const Pose& f, double* y) {
+      Sample s;
+      white_static_outputs(s, f, 2e-3, 5e-4, rng);
+      for (int a = 0; a < 6; ++a) y[a] = s.y[a];
+    });
+  }
+  std::vector<Sample> bad = clean_log;
+  long long far_runs = 0, far_rows = 0;
+  for (std::size_t i = 700, k = 0; i + 20 < bad.size(); i += 1733, ++k) {
+    const std::size_t len = 2 + k % 9;
+    const double fz = std::fabs(bad[i].f[2]);
+    ASSERT_FALSE(fz > 0.008 && fz < 0.1) << "a run neither clearly far (50 σ) nor within the noise";
+    if (fz >= 0.1) ++far_runs, far_rows += static_cast<long long>(len);
+    for (std::size_t j = 0; j < len; ++j) bad[i + j].y[2] = 0.0;
+  }
+  ASSERT_GT(far_runs, 10);
+  VectorSource a_src(clean_log), b_src(bad), c_src(bad);
+  const Options o;
+  const DiagnosisResult clean = diagnose(a_src, basic_model(), o);
+  const DiagnosisResult r = diagnose(b_src, basic_model(), o);
+  EXPECT_TRUE(clean.unexplained.empty());
+  for (int a = 0; a < kNumAxes; ++a) EXPECT_EQ(clean.dropouts[static_cast<std::size_t>(a)].runs, 0) << axis_name(a);
+  EXPECT_EQ(r.dropouts[2].runs, far_runs);
+  EXPECT_EQ(r.dropouts[2].rows, far_rows);
+  ASSERT_EQ(r.unexplained.size(), 1u);
+  EXPECT_EQ(r.unexplained[0].axis, "accel.z");
+  EXPECT_EQ(r.unexplained[0].basis, "dropouts");
+  EXPECT_TRUE(r.selected.empty());
+  EXPECT_NEAR(r.stoch[2].N, clean.stoch[2].N, 0.02 * clean.stoch[2].N) << "the white noise is the clean log's";
+  const auto lines = verdict_lines(r);
+  ASSERT_GE(lines.size(), 3u);
+  EXPECT_NE(lines[2].find("reads exactly 0 m/s^2 in " + std::to_string(far_runs) + " runs"), std::string::npos) << lines[2];
+  Options off = o;
+  off.dropouts = false;
+  const DiagnosisResult raw = diagnose(c_src, basic_model(), off);
+  EXPECT_GT(raw.stoch[2].N, 1.05 * clean.stoch[2].N);
 }
 
 TEST(DiagnosisPipeline, PeriodicBiasBelowTheHeldOutThresholdIsStillNamed) {

@@ -505,6 +505,16 @@ def build_scenario(rng, spec):
 
 # ----------------------------------------------------------------------------------------------------
 # Out-of-catalog effects (functions of the inputs that no catalog effect has), added to y in SI.
+def zero_burst_mask(o, t):
+    """The rows a zero_burst term clears: bursts of 3 to max_rows rows at Poisson times, one per interval_s."""
+    rng = np.random.default_rng(o['seed'])
+    n = int(rng.poisson(t[-1] / o['interval_s']))
+    mask = np.zeros(len(t), dtype=bool)
+    for i0, ln in zip(rng.integers(0, len(t), n), rng.integers(3, o['max_rows'] + 1, n)):
+        mask[i0:i0 + ln] = True
+    return mask
+
+
 def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     kind = o['kind']
     if kind == 'heading':        # bias following the table heading (outer angle): motor / table field
@@ -666,6 +676,14 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
         return o['amplitude'] * (np.abs(d) < o['half_width_rad'])  # a step in angle, no harmonic of it
     if kind == 'stuck_bit':      # one bit of the output word stuck at 0: acts on the counts (output stage below);
         return np.zeros(len(t))  # here nothing is added to the input-side signal
+    if kind == 'temp_knee':      # the part's own compensation table ends at T0: past it the bias it leaves grows
+        return o['amplitude'] * np.maximum(T - o['T0_C'], 0.0) / o['span_C']  # linearly with the die temperature
+        # (a kink in T: zero below T0; the catalog's bias_temp is a smooth polynomial in T)
+    if kind == 'zero_burst':     # the axis' data register read as cleared while the converter rewrote it (a
+        return np.zeros(len(t))  # read-during-update race): short bursts of rows reading exactly 0, on the counts
+    if kind == 'drive_current':  # the table drive's current while it accelerates or brakes loads the fixture's
+        wd = np.gradient(w_imu, t, axis=0)  # supply: a bias in |angular acceleration| (both signs of torque),
+        return o['amplitude'] * np.minimum(np.linalg.norm(wd, axis=1) / o['alpha0_rad_s2'], 1.0)  # up to amp
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -807,7 +825,11 @@ def generate(case, out_dir, fmt='csv'):
         for o in case.get('ooc', []):
             if o['sensor'] == s:
                 sig = np.zeros_like(ys)
-                if o['kind'] == 'stuck_bit':
+                if o['kind'] == 'zero_burst':
+                    # acts on the counts below; its SNR is taken on the noise-free output it clears
+                    jj = AX.index(o['axis'])
+                    sig[:, jj] = -ys[:, jj] * zero_burst_mask(o, t)
+                elif o['kind'] == 'stuck_bit':
                     # acts on the counts below; its SNR is taken on what it does on average to the noisy samples
                     # (white noise dithers the bit: a bit well under the sample noise is only a constant bias)
                     jj = AX.index(o['axis'])
@@ -885,6 +907,8 @@ def generate(case, out_dir, fmt='csv'):
             for o in case.get('ooc', []):
                 if o['sensor'] == s and o['axis'] == aj and o['kind'] == 'stuck_bit':
                     cs[:, j] &= ~(1 << o['bit'])  # two's complement: the bit reads 0 in either sign
+                if o['sensor'] == s and o['axis'] == aj and o['kind'] == 'zero_burst':
+                    cs[zero_burst_mask(o, t), j] = 0
         counts[s] = cs
 
     sim = case.get('scenario', {})
@@ -1174,6 +1198,10 @@ OOC_KINDS_UNSEEN12 = ['scale_temp_hyst', 'cogging', 'mount_flex']
 # temperature rate, a bias while the outer axis stands within a window of angles (an intermittent contact), one bit
 # of the output word stuck at 0
 OOC_KINDS_UNSEEN13 = ['tdot_scale', 'angle_window', 'stuck_bit']
+# written at stop 65 and first run on the stop-64 binary (suite 'unseen14'): a bias growing past a knee in the die
+# temperature (the part's compensation table ending), bursts of rows reading exactly 0 (a register read while it was
+# rewritten), a bias in the table's angular acceleration (the drive's current loading the supply)
+OOC_KINDS_UNSEEN14 = ['temp_knee', 'zero_burst', 'drive_current']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g',
                  'range_switch')
@@ -1290,6 +1318,14 @@ def ooc_params(ooc_kind, amp, rng, scenario):
                     half_width_rad=math.radians(float(rng.uniform(15, 60))))
     if ooc_kind == 'stuck_bit':  # the bit whose weight is nearest amp (filled once the sensor's LSB is known)
         return dict(bit=None, amplitude=amp)
+    if ooc_kind == 'temp_knee':  # amp at the hottest plateau; the knee in the upper two thirds of the range
+        lo, hi = min(scenario['plateaus_C']), max(scenario['plateaus_C'])
+        T0 = float(lo + rng.uniform(0.3, 0.7) * (hi - lo))
+        return dict(amplitude=amp, T0_C=T0, span_C=max(hi - T0, 1.0))
+    if ooc_kind == 'zero_burst':  # bursts of 3-12 rows, one every 30-120 s on average (their size is the axis' own
+        return dict(seed=int(rng.integers(1 << 30)), interval_s=float(rng.uniform(30, 120)), max_rows=12)  # output)
+    if ooc_kind == 'drive_current':  # amp at the sines' largest angular acceleration (3.4 rad/s^2) and beyond
+        return dict(amplitude=amp, alpha0_rad_s2=3.4)
     if ooc_kind == 'mount_flex':  # amp at the top rate and 1 g along the input axis
         return dict(coefficient=amp / (9.80665 * math.radians(max(scenario['rates_dps'])) ** 2), input_axis=None)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
