@@ -394,8 +394,9 @@ struct Unexplained {
   std::vector<std::string> withdrawn;     // effects withdrawn because they left this gap in place
   // What names it: "heldout_chi2" (chi2_dof_after > unexplained_chi2_dof), "wander" (within it, but the
   // whole log's residual is no stationary wander: Options::wander_unexplained_*) or "glitches" (neither, but the
-  // axis held isolated single-sample outliers, replaced before the fit: DiagnosisResult::glitches) or
-  // "temp_motion" (its static dwells scatter far more while the temperature moves: DiagnosisResult::temp_motion)
+  // axis held isolated single-sample outliers, replaced before the fit: DiagnosisResult::glitches) or "dropouts"
+  // (neither, but it held runs of rows reading a failed read's word, bridged before the fit: DiagnosisResult::dropouts)
+  // or "temp_motion" (its static dwells scatter far more while the temperature moves: DiagnosisResult::temp_motion)
   // or "axis_timing" (a latency of its own, apart from the other two axes': DiagnosisResult::axis_timing)
   // or "stuck_bit" (a bit of its output word that never changes: DiagnosisResult::stuck_bits).
   std::string basis = "heldout_chi2";
