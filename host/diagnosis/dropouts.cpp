@@ -5,11 +5,15 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "host/estimator/robust.h"
+
 namespace imuforge::diagnosis {
 
 DropoutFilterSource::DropoutFilterSource(SampleSource& inner, std::array<double, 2> lsb, bool enabled)
     : inner_(inner), lsb_(lsb), ahead_(static_cast<std::size_t>(kMaxRun) + 8) {
   searched_ = !enabled;  // off: nothing to search, every pass replays the log as it is
+  trace_ = std::getenv("IMUFORGE_DIAG_TRACE") != nullptr;
+  scratch_.reserve(kSteps);
 }
 
 void DropoutFilterSource::reset_search() {
@@ -35,15 +39,14 @@ long long DropoutFilterSource::blocked_from() const {
 
 void DropoutFilterSource::close_run(int a, bool at_end) {
   Axis& x = ax_[static_cast<std::size_t>(a)];
-  bool drop = !at_end && x.n_before == 2 && x.n_after == 2 && x.quantum > 0 && x.run_end >= x.run_start && x.n_steps >= kSteps;
+  bool drop = !at_end && x.n_before == 2 && x.n_after == 2 && x.quantum > 0 && x.n_steps >= kSteps;
   double z = 0, evidence = 0;
   if (drop) {
     const double d[4] = {x.before[0] - x.v, x.before[1] - x.v, x.after[0] - x.v, x.after[1] - x.v};
     const bool above = d[0] > 0 && d[1] > 0 && d[2] > 0 && d[3] > 0, below = d[0] < 0 && d[1] < 0 && d[2] < 0 && d[3] < 0;
     const double m = std::min(std::min(std::fabs(d[0]), std::fabs(d[1])), std::min(std::fabs(d[2]), std::fabs(d[3])));
-    std::array<double, kSteps> st = x.steps;
-    std::nth_element(st.begin(), st.begin() + kSteps / 2, st.end());
-    const double sigma_step = 1.4826 * st[kSteps / 2];
+    scratch_.assign(x.steps.begin(), x.steps.end());
+    const double sigma_step = estimator::robust_sigma_of_magnitudes(scratch_);
     const double sigma_row =
         std::max({sigma_step / std::sqrt(2.0), std::fabs(x.before[1] - x.before[0]) / std::sqrt(2.0),
                   std::fabs(x.after[1] - x.after[0]) / std::sqrt(2.0), 2.0 * x.quantum});
@@ -73,7 +76,7 @@ void DropoutFilterSource::close_run(int a, bool at_end) {
     S.rows += len;
     S.longest = std::max(S.longest, static_cast<int>(len));
     if (S.t_s.size() < DropoutSummary::kListed) S.t_s.push_back(t);
-    if (std::getenv("IMUFORGE_DIAG_TRACE"))
+    if (trace_)
       std::fprintf(stderr, "dropout %s: %lld rows from %.3f s read %.6g, neighbours %.6g %.6g | %.6g %.6g, %.1f sigma away, %.0f nats\n",
                    axis_name(a), len, t, x.v, x.before[0], x.before[1], x.after[0], x.after[1], z, evidence);
   }

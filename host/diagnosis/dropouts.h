@@ -15,7 +15,7 @@
 // from v, a row reads exactly v with probability q/σ · φ(z) (q the output quantum, where σ > q), so the run's
 // evidence is L · (z²/2 + ln √(2π) + ln(σ/q)) nats: a run of rows holding one exact value on a noisy axis is itself
 // improbable, and a single row needs z ≥ 8.6. σ of a row is the robust σ of the step between neighbouring rows
-// over the last kSteps rows outside runs (1.4826 × the median |Δy|, over √2), at least the larger step within each
+// over the last kSteps rows outside runs (estimator::robust_sigma_of_magnitudes, over √2), at least the larger step within each
 // pair of neighbours (over √2) and two output quanta (the smallest non-zero step between neighbouring rows so far);
 // until kSteps steps and one quantum are seen nothing is judged. Two neighbouring pairs alone as the spread took a
 // consumer accelerometer's 0.04 m/s² of noise reading 0 at 2.5 σ for a failed read 15 times in a 2.5 h log
@@ -86,6 +86,8 @@ class DropoutFilterSource : public SampleSource {
   SampleSource& inner_;
   std::array<double, 2> lsb_;
   bool searched_ = false;
+  bool trace_ = false;
+  std::vector<double> scratch_;            // a run's steps, for their robust σ
   // The search (first pass).
   std::array<Axis, kNumAxes> ax_{};
   std::vector<Sample> ahead_;              // a ring of the rows read, not yet handed on: ahead_n_ from ahead_head_

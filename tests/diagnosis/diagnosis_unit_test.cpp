@@ -1192,19 +1192,22 @@ TEST(DiagnosisGlitches, IsolatedSamplesAreFoundAmongRampsKinksStepsAndVibrationA
   EXPECT_EQ(off.total(), 0);
 }
 
+// Static tilts (three passes of two_axis_tilts, 8 s each) with white noise of 2e-3 m/s² and 5e-4 rad/s per sample:
+// the clean log a filter test corrupts.
+std::vector<Sample> white_tilt_log(unsigned seed) {
+  std::mt19937_64 rng(seed);
+  return static_pose_log(two_axis_tilts(), 3, 8.0, [&](int, const Pose& f, double* y) {
+    Sample s;
+    white_static_outputs(s, f, 2e-3, 5e-4, rng);
+    for (int a = 0; a < 6; ++a) y[a] = s.y[a];
+  });
+}
+
 // The same glitches in a diagnosis: static tilts with white noise, and single samples of accel.y set 60 sigma off
 // about once every 20 s. The axis is named for them (basis "glitches"), nothing is selected, and the fit is the
 // clean log's: the bias and the white noise the glitches would have pulled and inflated come out as without them.
 TEST(DiagnosisPipeline, GlitchesNameTheirAxisAndLeaveTheFitAsTheCleanLogs) {
-  std::vector<Sample> clean_log;
-  {
-    std::mt19937_64 rng(62);
-    clean_log = static_pose_log(two_axis_tilts(), 3, 8.0, [&](int, const Pose& f, double* y) {
-      Sample s;
-      white_static_outputs(s, f, 2e-3, 5e-4, rng);
-      for (int a = 0; a < 6; ++a) y[a] = s.y[a];
-    });
-  }
+  const std::vector<Sample> clean_log = white_tilt_log(62);
   std::vector<Sample> glitched = clean_log;
   int injected = 0;
   for (std::size_t i = 1000; i + 3 < glitched.size(); i += 1999, ++injected) glitched[i].y[1] += (injected % 2 ? -60.0 : 60.0) * 2e-3;
@@ -1313,15 +1316,7 @@ TEST(DiagnosisDropouts, FailedReadsAreBridgedAndHealthyZerosLeftAlone) {
 // The pipeline bridges an accelerometer's failed reads, names the axis on that basis and keeps the clean log's noise
 // model; without the bridge the same rows inflate the noise (blindgen's `zero_burst`: "steps from segment to segment").
 TEST(DiagnosisPipeline, DropoutsAreBridgedAndNameTheirAxis) {
-  std::vector<Sample> clean_log;
-  {
-    std::mt19937_64 rng(66);
-    clean_log = static_pose_log(two_axis_tilts(), 3, 8.0, [&](int, const Pose& f, double* y) {
-      Sample s;
-      white_static_outputs(s, f, 2e-3, 5e-4, rng);
-      for (int a = 0; a < 6; ++a) y[a] = s.y[a];
-    });
-  }
+  const std::vector<Sample> clean_log = white_tilt_log(66);
   std::vector<Sample> bad = clean_log;
   long long far_runs = 0, far_rows = 0;
   for (std::size_t i = 700, k = 0; i + 20 < bad.size(); i += 1733, ++k) {
