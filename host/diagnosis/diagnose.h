@@ -423,6 +423,10 @@ struct DropoutSummary {
   long long rows = 0;         // rows in them
   int longest = 0;            // rows in the longest run
   double value = 0;           // the value the first run read, SI (0, or −LSB)
+  // Runs that read the other failed word (−LSB where the first read 0, or 0 where it read −LSB): a bus that floats
+  // high on some reads and returns cleared on others. 0 when every run read `value`.
+  long long other_runs = 0;
+  double other_value = 0;
   double min_z = 0;           // the nearest any run's neighbours came to it, in σ of a row (≥ kMinZ)
   double first_t_s = 0, last_t_s = 0;  // the first and the last run's start
   std::vector<double> t_s;    // the first kListed runs' start times (s)

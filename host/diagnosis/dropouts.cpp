@@ -70,6 +70,10 @@ void DropoutFilterSource::close_run(int a, bool at_end) {
       S.value = x.v;
       S.min_z = z;
     }
+    if (x.v != S.value) {
+      ++S.other_runs;
+      S.other_value = x.v;
+    }
     S.last_t_s = t;
     S.min_z = std::min(S.min_z, z);
     ++S.runs;

@@ -168,12 +168,17 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
     const auto& dr = r.dropouts[u];
     if (dr.runs > 0) {
       const bool many = dr.runs > 1;
-      line += "reads exactly " + fmt("%.6g", dr.value) + " " + unit_of(a) + " in " + std::to_string(dr.runs) + " run" + (many ? "s" : "") +
+      // Runs of both failed words are counted apart (the first run's word leads).
+      const long long first_runs = dr.runs - dr.other_runs;
+      line += "reads exactly " + fmt("%.6g", dr.value) + " " + unit_of(a) + " in " + std::to_string(first_runs) + " run" + (first_runs > 1 ? "s" : "") +
+              (dr.other_runs > 0 ? " and " + fmt("%.6g", dr.other_value) + " " + unit_of(a) + " in " + std::to_string(dr.other_runs) + ","
+                                 : std::string()) +
               " of " + (many ? "up to " : "") + std::to_string(dr.longest) + " row" + (dr.longest > 1 ? "s" : "") +
               (many ? " (" + std::to_string(dr.rows) + " in all, between " + fmt("%.1f", dr.first_t_s) + " and " + fmt("%.1f", dr.last_t_s) + " s)"
                     : " (at " + fmt("%.1f", dr.first_t_s) + " s)") +
               " while the rows either side stand " + (many ? "at least " : "") + fmt("%.0f", dr.min_z) +
-              " sigma (of a row's noise) away from it: reads that failed (a data register read while it was rewritten, a cleared or "
+              " sigma (of a row's noise) away from " + (dr.other_runs > 0 ? "them" : "it") +
+              ": reads that failed (a data register read while it was rewritten, a cleared or "
               "floating bus, a frame the logger filled), not the sensor's physics; bridged by the line between " +
               (many ? "their" : "its") + " neighbours before the fit; with " + (many ? "them" : "it") + " bridged, ";
     }
@@ -461,6 +466,7 @@ nlohmann::json to_json(const DiagnosisResult& r) {
     const auto& d = r.dropouts[static_cast<std::size_t>(a)];
     if (d.runs == 0) continue;
     drj[axis_name(a)] = {{"runs", d.runs},           {"rows", d.rows},           {"longest", d.longest}, {"value", num(d.value)},
+                         {"other_value", num(d.other_value)}, {"other_runs", d.other_runs},
                          {"min_z", num(d.min_z)}, {"first_t_s", num(d.first_t_s)}, {"last_t_s", num(d.last_t_s)}, {"t_s", d.t_s}};
   }
   j["dropouts"] = drj;

@@ -684,6 +684,16 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     if kind == 'drive_current':  # the table drive's current while it accelerates or brakes loads the fixture's
         wd = np.gradient(w_imu, t, axis=0)  # supply: a bias in |angular acceleration| (both signs of torque),
         return o['amplitude'] * np.minimum(np.linalg.norm(wd, axis=1) / o['alpha0_rad_s2'], 1.0)  # up to amp
+    if kind == 'dead_zone':      # a gyro that reports 0 within +-d of zero rate (a zero-rate threshold in the part's
+        return -np.clip(w_imu[:, j], -o['d_rad_s'], o['d_rad_s'])  # output stage): static poses lose the Earth's rate,
+        # rotations read d short of their rate (odd in w; no catalog term is a band about zero)
+    if kind == 'beat_chirp':     # a switching regulator beating with the sample clock: a slow sinusoidal bias whose
+        f = o['f0_hz'] * (1.0 + o['sweep'] * (T - o['T_mid_C']) / o['half_span_C'])  # frequency follows the die
+        phase = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(t))])  # temperature (the
+        return o['amplitude'] * np.sin(2 * np.pi * phase + o['phase_rad'])  # regulator's tempco, aliased)
+    if kind == 'scale_warmup':   # a scale factor settling after power-up (the drive amplitude or the reference
+        u = f_imu if o['sensor'] == 'accel' else w_imu  # settling), by time, whatever the die's temperature does
+        return o['per_unit'] * np.exp(-t / o['tau_s']) * u[:, j]
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -1202,9 +1212,13 @@ OOC_KINDS_UNSEEN13 = ['tdot_scale', 'angle_window', 'stuck_bit']
 # temperature (the part's compensation table ending), bursts of rows reading exactly 0 (a register read while it was
 # rewritten), a bias in the table's angular acceleration (the drive's current loading the supply)
 OOC_KINDS_UNSEEN14 = ['temp_knee', 'zero_burst', 'drive_current']
+# written at stop 66 and first run on the stop-65 binary (suite 'unseen15'): a gyro reading 0 within a band about zero
+# rate (a zero-rate threshold), a slow sinusoidal bias whose frequency follows the die temperature (a regulator
+# beating with the sample clock), a scale factor settling after power-up by time
+OOC_KINDS_UNSEEN15 = ['dead_zone', 'beat_chirp', 'scale_warmup']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g',
-                 'range_switch')
+                 'range_switch', 'dead_zone')
 OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple', 'knee', 'mount_flex')
 
 
@@ -1326,6 +1340,16 @@ def ooc_params(ooc_kind, amp, rng, scenario):
         return dict(seed=int(rng.integers(1 << 30)), interval_s=float(rng.uniform(30, 120)), max_rows=12)  # output)
     if ooc_kind == 'drive_current':  # amp at the sines' largest angular acceleration (3.4 rad/s^2) and beyond
         return dict(amplitude=amp, alpha0_rad_s2=3.4)
+    if ooc_kind == 'dead_zone':  # the band's half-width: 1-6 times the Earth's rate, or amp if larger
+        return dict(d_rad_s=float(max(abs(amp), 7.292115e-5 * rng.uniform(1.0, 6.0))))
+    if ooc_kind == 'beat_chirp':  # a beat of period 60-300 s at mid temperature, +-20-60 % over the range
+        lo, hi = min(scenario['plateaus_C']), max(scenario['plateaus_C'])
+        return dict(amplitude=amp, f0_hz=1.0 / float(rng.uniform(60, 300)), sweep=float(rng.uniform(0.2, 0.6)),
+                    T_mid_C=0.5 * (lo + hi), half_span_C=max(0.5 * (hi - lo), 1.0),
+                    phase_rad=float(rng.uniform(0, 2 * np.pi)))
+    if ooc_kind == 'scale_warmup':  # amp at the largest input at power-up; settles with tau 120-600 s
+        return dict(per_unit=None, amplitude=amp, tau_s=float(rng.uniform(120, 600)),
+                    _top_rate=math.radians(max(scenario['rates_dps'])))
     if ooc_kind == 'mount_flex':  # amp at the top rate and 1 g along the input axis
         return dict(coefficient=amp / (9.80665 * math.radians(max(scenario['rates_dps'])) ** 2), input_axis=None)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
@@ -1338,6 +1362,9 @@ def ooc_fill_axis(o, rng):
     if o['kind'] == 'scale_age':  # the scale change over the run gives amp at the largest input (1 g, or the top rate)
         top = o.pop('_top_rate')
         o['per_unit'] = 2.0 * o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
+    if o['kind'] == 'scale_warmup':
+        top = o.pop('_top_rate')
+        o['per_unit'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
     if o['kind'] == 'mount_slip':
         top = o.pop('_top_rate')
         o['theta_rad'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
