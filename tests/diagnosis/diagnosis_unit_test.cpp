@@ -1395,6 +1395,16 @@ TEST(DiagnosisPipeline, DropoutsAreBridgedAndNameTheirAxis) {
   const auto lines = verdict_lines(r);
   ASSERT_GE(lines.size(), 3u);
   EXPECT_NE(lines[2].find("reads exactly 0 m/s^2 in " + std::to_string(far_runs) + " runs"), std::string::npos) << lines[2];
+  // Runs of both failed words are counted apart, the first run's word first (the filter's own counts are tested in
+  // DiagnosisDropouts.FailedReadsAreBridgedAndHealthyZerosLeftAlone).
+  DiagnosisResult two = r;
+  two.dropouts[2].other_runs = 2;
+  two.dropouts[2].other_value = -6e-4;
+  const std::string both = verdict_lines(two)[2];
+  EXPECT_NE(both.find("reads exactly 0 m/s^2 in " + std::to_string(far_runs - 2) + " runs and -0.0006 m/s^2 in 2, of up to "),
+            std::string::npos)
+      << both;
+  EXPECT_NE(both.find("away from them:"), std::string::npos) << both;
   Options off = o;
   off.dropouts = false;
   const DiagnosisResult raw = diagnose(c_src, basic_model(), off);
