@@ -4031,9 +4031,12 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     // to 2.43 "in a GLS fit under the whole-log wander" and the axis went unnamed, though its innovations' spread was
     // 16x larger where the rate is (Breusch-Pagan p 2e-109). On 132 whole-catalog cases (varied36, varied37) no axis
     // outside an out-of-catalog term had a floor picked with p < 1e-10.
+    // One test of the spread for both: the raise adds its size gate below.
+    auto spread_follows_input = [&](const WholeLogWander& l) {
+      return l.hetero_p < o.wander_max_hetero_p && l.hetero_ratio >= o.wander_hetero_ratio;
+    };
     const WholeLogWander& floor = lines[2];
-    const bool floor_follows_input = floor.hetero_p < o.wander_max_hetero_p && floor.hetero_ratio >= o.wander_hetero_ratio;
-    if (floor.below_likelihood && !*reason(floor) && !floor_follows_input && floor.material() &&
+    if (floor.below_likelihood && !*reason(floor) && !spread_follows_input(floor) && floor.material() &&
         (!pick || *reason(*pick) || !pick->material()))
       pick = &floor;
     if (!pick) return std::nullopt;
@@ -4042,10 +4045,11 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     w.value = pick->kind == WholeLogWander::kFlicker ? pick->B : pick->K;
     w.measured = *pick;
     w.beyond_reason = reason(*pick);
-    // Asked of the final model's raise only: during selection a catalog effect not yet in the model leaves the same
+    // As a reason, asked of the final model's raise only (the floor above is asked it before adoption): during
+    // selection a catalog effect not yet in the model leaves the same
     // input-dependent spread, and the raise that takes it there is what the candidate's test is judged against.
-    if (w.beyond_reason.empty() && !pick->below_likelihood && pick->material() && pick->hetero_p < o.wander_max_hetero_p &&
-        pick->hetero_ratio >= o.wander_hetero_ratio && pick->ratio >= o.wander_hetero_min_raise)
+    if (w.beyond_reason.empty() && !pick->below_likelihood && pick->material() && spread_follows_input(*pick) &&
+        pick->ratio >= o.wander_hetero_min_raise)
       w.beyond_reason = "input";
     // A raise that passes its checks and would be carried: is the residual it takes a sinusoid of a few cycles
     // rather than wander (noise_model.h, periodic_bias)? Asked of the raise alone: the verdict's floor is judged

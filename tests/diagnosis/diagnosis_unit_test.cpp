@@ -346,7 +346,6 @@ Eigen::MatrixXd flicker_bank_rows(const StochasticModel& m, int n, double dur_s,
   return rows;
 }
 
-
 // Rows [z | 1] of n blocks of dur_s: 0.3 + bias(i, w_i) + white block noise, where w is a random walk of K
 // (unit/√s) drawn from `seed`, in that order per block (the bias function decides whether the walk is in it).
 template <class Bias>
@@ -738,15 +737,15 @@ TEST(DiagnosisNoiseModel, TheVerdictsFloorIsAskedWhetherItsSpreadFollowsTheInput
       EXPECT_TRUE(quiet.hetero_p > 1e-6 || quiet.hetero_ratio < 4.0)
           << seed << ": a flicker's spread does not follow the speed (p " << quiet.hetero_p << ", ratio " << quiet.hetero_ratio << ")";
     }
-    const WholeLogWander cubed = whole_log_wander(m, t, d, rows_of(2e-3, seed), 0.0, n * dur_s, 1e6, nullptr, &speed)[2];
-    ASSERT_EQ(cubed.kind, WholeLogWander::kFlicker) << seed << ": the floor is found (else the check is not exercised)";
-    EXPECT_TRUE(cubed.below_likelihood);
+    const WholeLogWander spread = whole_log_wander(m, t, d, rows_of(2e-3, seed), 0.0, n * dur_s, 1e6, nullptr, &speed)[2];
+    ASSERT_EQ(spread.kind, WholeLogWander::kFlicker) << seed << ": the floor is found (else the check is not exercised)";
+    EXPECT_TRUE(spread.below_likelihood);
     std::printf("seed %d: flicker alone p %.2g ratio %.2g; with the spread p %.2g ratio %.2g\n", static_cast<int>(seed), quiet.hetero_p,
-                quiet.hetero_ratio, cubed.hetero_p, cubed.hetero_ratio);
-    inputs += cubed.hetero_p < 1e-10 && cubed.hetero_ratio >= 4.0;
+                quiet.hetero_ratio, spread.hetero_p, spread.hetero_ratio);
+    inputs += spread.hetero_p < 1e-10 && spread.hetero_ratio >= 4.0;
   }
   EXPECT_GE(floors, 3) << "the flicker alone gives floors to ask";
-  EXPECT_GE(inputs, 4) << "the cube of the speed beneath the floor fails the input check in 4 of 5 logs";
+  EXPECT_GE(inputs, 4) << "the spread growing with the speed beneath the floor fails the input check in 4 of 5 logs";
 }
 
 // Short dwells read the start of a random walk as flicker (its Allan deviation at their few-second lengths looks
