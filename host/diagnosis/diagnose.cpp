@@ -2449,14 +2449,20 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   // Held-out innovations were tried first: the folds' fits differ by their share of the wander, and whitening
   // turns those offsets between neighbouring segments of different folds into innovations (stoch-consumer-24
   // accel.z: 5.2 on the dwells' fits, 8.1 on fits under the wander, 0.86 in-sample).
+  // The χ²/dof of a model's fit to an axis's blocks as whitened in `ad` (under an adopted wander, axw, or the one an
+  // axis would carry: the unexplained check); NaN without a degree of freedom.
+  auto gls_chi2_dof = [&](const AxisData& ad, const std::set<ParamId>& ids_model) {
+    const Fit f = fit_axis(ad, cols_for(ad, ids_model), -1);
+    const double dof = static_cast<double>(ad.z.size()) - static_cast<double>(f.kept.size());
+    return dof > 0 ? f.rss / dof : std::numeric_limits<double>::quiet_NaN();
+  };
   // The GLS χ²/dof under the adopted wander (axw), per axis where it is adopted, added to a gap.
   auto add_wander_chi2 = [&](Gap g, const std::set<ParamId>& ids_model) {
     for (int a = 0; a < kNumAxes; ++a) {
       const auto ua = static_cast<std::size_t>(a);
       if (!R.wander[ua].adopted) continue;
-      const Fit f = fit_axis(axw[ua], cols_for(axw[ua], ids_model), -1);
-      const double dof = static_cast<double>(axw[ua].z.size()) - static_cast<double>(f.kept.size());
-      if (dof > 0) g.chi2_dof_wander[ua] = f.rss / dof;
+      const double c = gls_chi2_dof(axw[ua], ids_model);
+      if (std::isfinite(c)) g.chi2_dof_wander[ua] = c;
     }
     return g;
   };
@@ -4137,6 +4143,34 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   };
   std::array<std::optional<DiagnosisResult::Wander>, kNumAxes> wander_asked;
   std::set<ParamId> wander_asked_ids;  // the model they were asked under
+  // assess_wander(a) under `cur`, asked once per model (a whole-log search): the unexplained check, the stand-in
+  // check and the final model's wander ask the same question while `cur` is unchanged.
+  auto wander_now = [&](int a) -> const std::optional<DiagnosisResult::Wander>& {
+    if (wander_asked_ids != cur) {
+      wander_asked = {};
+      wander_asked_ids = cur;
+    }
+    std::optional<DiagnosisResult::Wander>& w = wander_asked[static_cast<std::size_t>(a)];
+    if (!w) w = assess_wander(a);
+    return w;
+  };
+  // The effect's GLS LR on one axis against the model without it, both fitted to the blocks as whitened in `ad`, and
+  // whether it is significant there at the selection's Bonferroni level. chi2_dof_without: that fit's χ²/dof.
+  struct AxisLR {
+    double lr = 0, chi2_dof_without = 0;
+    int dof = 0;
+    bool significant = false;
+  };
+  auto axis_lr = [&](const AxisData& ad, const std::set<ParamId>& without) {
+    const Fit f_with = fit_axis(ad, cols_for(ad, cur), -1), f_without = fit_axis(ad, cols_for(ad, without), -1);
+    AxisLR r;
+    r.dof = static_cast<int>(f_with.kept.size()) - static_cast<int>(f_without.kept.size());
+    r.lr = f_without.rss - f_with.rss;
+    const double dof_without = static_cast<double>(ad.z.size()) - static_cast<double>(f_without.kept.size());
+    r.chi2_dof_without = dof_without > 0 ? f_without.rss / dof_without : 0.0;
+    r.significant = r.dof > 0 && r.lr > 0 && chi2_sf(r.lr, r.dof) < o.alpha / std::max<std::size_t>(1, candidates.size());
+    return r;
+  };
   // Which axes are unexplained is the verdict's rule (`over`): on the dwells' noise, and not whitened by an
   // adopted wander. On the dwells' noise alone, an axis whose whole-log wander the verdict adopts stayed "over"
   // here: its effects were withdrawn for leaving it unexplained, and the verdict then called it at noise, so a
@@ -4168,21 +4202,16 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       for (int a = 3 * si; a < 3 * si + 3; ++a) {
         const auto ua = static_cast<std::size_t>(a);
         if (!over(sel_gap, a) || R.wander[ua].adopted) continue;
-        if (!wander_asked[ua] || wander_asked_ids != cur) {
-          wander_asked[ua] = assess_wander(a);
-          wander_asked_ids = cur;
-        }
-        const std::optional<DiagnosisResult::Wander>& w = wander_asked[ua];
+        const std::optional<DiagnosisResult::Wander>& w = wander_now(a);
         if (!w || w->beyond_limit || !w->measured.material()) continue;
         AxisData aw = ax[ua];
         double rw0 = 0;
         whiten_axis(aw, with_wander(R.stoch[ua], &w->measured, R.duration_s, R.rw_prior_var[ua], rw0), rw0);
-        const Fit f = fit_axis(aw, cols_for(aw, cur), -1);
-        const double dof = static_cast<double>(aw.z.size()) - static_cast<double>(f.kept.size());
-        if (dof > 0 && f.rss / dof <= o.unexplained_chi2_dof) carried[ua] = std::move(aw);
+        const double c = gls_chi2_dof(aw, cur);
         if (std::getenv("IMUFORGE_DIAG_TRACE"))
           std::fprintf(stderr, "over %s: the wander it would carry (%s %.3g, %.2fx) gives GLS chi2/dof %.3g\n", axis_name(a),
-                       w->kind.c_str(), w->value, w->measured.ratio, dof > 0 ? f.rss / dof : 0.0);
+                       w->kind.c_str(), w->value, w->measured.ratio, std::isfinite(c) ? c : 0.0);
+        if (c <= o.unexplained_chi2_dof) carried[ua] = std::move(aw);
       }
     std::vector<std::pair<int, int>> drop;
     for (const auto& ef : sel_s) {
@@ -4205,17 +4234,11 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           // it is significant there (GLS LR at the selection's Bonferroni level). `unseen14` mixed-drive_current
           // accel.y: a true k2 (snr 38) beside accel.scale_asymmetry, which the sensor does not have, at 3.23 -> 3.21
           // on the dwells' noise, 0.82 under the wander without it (LR 3.9 on 1 dof).
-          const AxisData& aw = *aw_p;
-          const Fit f_with = fit_axis(aw, cols_for(aw, cur), -1), f_without = fit_axis(aw, cols_for(aw, without), -1);
-          const double dof_without = static_cast<double>(aw.z.size()) - static_cast<double>(f_without.kept.size());
-          const int dof = static_cast<int>(f_with.kept.size()) - static_cast<int>(f_without.kept.size());
-          const double lr = f_without.rss - f_with.rss;
-          const bool needed = dof_without > 0 && f_without.rss / dof_without > o.unexplained_chi2_dof;
-          const bool significant = dof > 0 && lr > 0 && chi2_sf(lr, dof) < o.alpha / std::max<std::size_t>(1, candidates.size());
-          explains = explains || needed || significant;
+          const AxisLR l = axis_lr(*aw_p, without);
+          explains = explains || l.chi2_dof_without > o.unexplained_chi2_dof || l.significant;
           if (std::getenv("IMUFORGE_DIAG_TRACE"))
             std::fprintf(stderr, "  under the wander of %s: chi2/dof without %.3g, LR %.1f on %d dof\n", axis_name(a),
-                         dof_without > 0 ? f_without.rss / dof_without : 0.0, lr, dof);
+                         l.chi2_dof_without, l.lr, l.dof);
         } else {
           explains = explains || c0 > o.unexplained_chi2_dof || shrink >= 1.0;
           // On an axis the out-of-catalog signal does not reach, the effect's own evidence there: significant on
@@ -4223,13 +4246,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           // of a sensor whose OTHER axis is unexplained stays (an accelerometer hysteresis of 100 σ beside a bias
           // ∝ |ω| on x: 1.88 → 0.11 on y, withdrawn before); a stand-in for that other axis's signal has no
           // evidence of its own here.
-          if (!explains && c1 < c0) {
-            const auto& ad = ax[static_cast<std::size_t>(a)];
-            const Fit f_with = fit_axis(ad, cols_for(ad, cur), -1), f_without = fit_axis(ad, cols_for(ad, without), -1);
-            const int dof = static_cast<int>(f_with.kept.size()) - static_cast<int>(f_without.kept.size());
-            const double lr = f_without.rss - f_with.rss;
-            explains = dof > 0 && lr > 0 && chi2_sf(lr, dof) < o.alpha / std::max<std::size_t>(1, candidates.size());
-          }
+          if (!explains && c1 < c0) explains = axis_lr(ax[static_cast<std::size_t>(a)], without).significant;
         }
       }
       if (std::getenv("IMUFORGE_DIAG_TRACE")) {
@@ -4245,7 +4262,6 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     for (const auto& ef : drop) withdraw(ef);
     withdrew = withdrew || !drop.empty();
   }
-  if (withdrew) wander_asked = {};  // asked under a model the check has since changed
   // Stand-in (encompassing) check. An effect kept on an axis that stays unexplained may be there for the share of
   // the out-of-catalog function its columns can take, not for a signal of its own: `varied17` ooc-abs_rate-1, an
   // accel.y bias ∝ |ω| (no catalog effect has it), took accel.size_effect (ω² terms) for 65 % of its held-out
@@ -4265,7 +4281,6 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   {
     const double level = o.alpha / static_cast<double>(std::max<std::size_t>(1, candidates.size()));
     const Gap now_gap = withdrew ? add_wander_chi2(gap_of(cur), cur) : sel_gap;
-    wander_asked_ids = cur;
     std::vector<std::pair<int, int>> standin_drop;
     std::vector<ParamId> standin_trim;
     for (int si = 0; si < 2; ++si) {
@@ -4292,8 +4307,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           bool touched = false;
           for (const auto& ef : sel_s) touched = touched || !ids_on_axis(static_cast<Sensor>(ef.first), static_cast<Effect>(ef.second), a).empty();
           if (!touched || !o.whole_log_wander || R.wander[ua].adopted) continue;
-          if (!wander_asked[ua]) wander_asked[ua] = assess_wander(a);
-          const std::optional<DiagnosisResult::Wander>& w = wander_asked[ua];
+          const std::optional<DiagnosisResult::Wander>& w = wander_now(a);
           if (!w || w->within_rounding) continue;
           if (w->beyond_reason == "follows" && w->follows.best >= 0 &&
               std::max(w->measured.gain, w->follows.own_gain) >= o.wander_unexplained_gain) {
@@ -4460,8 +4474,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     for (int a = 0; a < kNumAxes; ++a) {
       const auto ua = static_cast<std::size_t>(a);
       if (R.wander[ua].adopted) continue;
-      const std::optional<DiagnosisResult::Wander> asked =
-          wander_asked[ua] && wander_asked_ids == cur ? wander_asked[ua] : assess_wander(a);
+      const std::optional<DiagnosisResult::Wander> asked = wander_now(a);
       if (!asked) continue;
       auto& w = R.wander[ua];
       w = *asked;
