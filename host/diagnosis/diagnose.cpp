@@ -3986,6 +3986,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     auto spread_follows_input = [&](const WholeLogWander& l) {
       return l.hetero_p < o.wander_max_hetero_p && l.hetero_ratio >= o.wander_hetero_ratio;
     };
+    std::vector<int> follows_cols;  // the functions (columns of follows_F) the follows check names, when it does
     const WholeLogWander& floor = lines[2];
     if (floor.below_likelihood && !*reason(floor) && !spread_follows_input(floor) && floor.material() &&
         (!pick || *reason(*pick) || !pick->material()))
@@ -4002,6 +4003,25 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     if (w.beyond_reason.empty() && !pick->below_likelihood && pick->material() && spread_follows_input(*pick) &&
         pick->ratio >= o.wander_hetero_min_raise)
       w.beyond_reason = "input";
+    // A line in the innovations (reason "periodic") under a raise too small to name the axis: the static dwells
+    // already read the periodic bias as wander (a walk or a flicker as large as it), so the whole log asks little
+    // more of the level, and the line's own evidence is what the verdict weighs (below, as a drift's or a
+    // settling's): the best sinusoid's likelihood gain beside the columns under the dwells' own level, as
+    // periodic_bias asks it of a raise that passes. `unseen15` ooc-beat_chirp-0 gyro.z: a bias beating at 167 s
+    // (7.4e-4 rad/s, its frequency following the die temperature) that the dwells took for a rate random walk of
+    // K 4.2e-5 (the part's: 4e-9); the walk raised 1.19x gains 22.7 with a line at p 7.5e-11, the sinusoid 115, and
+    // the axis went unnamed at held-out chi2/dof 0.83.
+    if (w.beyond_reason == "periodic" && pick->gain < o.wander_unexplained_gain) {
+      const AxisData& ad = ax[ua];
+      const Fit f = fit_axis(ad, cols_for(ad, cur), -1);
+      double rw0 = 0;
+      const StochasticModel m0 = with_wander(R.stoch[ua], nullptr, R.duration_s, R.rw_prior_var[ua], rw0);
+      w.sinusoid = periodic_bias(m0, blk_t, blk_dur, design_rows(ad, f.kept, 0), rw0, R.duration_s, &blk_seg);
+      if (std::getenv("IMUFORGE_DIAG_TRACE"))
+        std::fprintf(stderr, "periodic line %s: raise gain %.1f, line p %.2g at %.0f s; sine gain %.1f period %.0f s (%d periods)\n",
+                     axis_name(a), pick->gain, pick->line_p, pick->line_period_s, w.sinusoid.gain, w.sinusoid.period_s,
+                     w.sinusoid.n_periods);
+    }
     // A raise that passes its checks and would be carried: is the residual it takes a sinusoid of a few cycles
     // rather than wander (noise_model.h, periodic_bias)? Asked of the raise alone: the verdict's floor is judged
     // from a different level, and a refused raise is not carried anyway.
@@ -4078,7 +4098,10 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
         if (std::getenv("IMUFORGE_DIAG_TRACE"))
           std::fprintf(stderr, "follows %s: %s LR %.1f (own %.1f) over %d functions, bar %.1f\n", axis_name(a),
                        w.follows_input.c_str(), w.follows.gain, w.follows.own_gain, w.follows.n_functions, bar);
-        if (w.follows.gain > bar) w.beyond_reason = "follows";
+        if (w.follows.gain > bar) {
+          w.beyond_reason = "follows";
+          follows_cols = {w.follows.best};
+        }
         // The die temperature's hats together: a curve of T that no one hat draws (input_group_bias), at the
         // level of the bar above (its χ²(1) tail, halved: two such families are asked) on as many degrees of
         // freedom as hats. The family's live hats when it passes (gain and own_gain to w.follows), else 0.
@@ -4092,6 +4115,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
                          g.n_functions, g.gain, g.own_gain, p_group, p_bar);
           if (!(p_group < p_bar)) return 0;
           w.beyond_reason = "follows";
+          follows_cols = cols;
           w.follows.gain = g.gain;
           w.follows.own_gain = g.own_gain;
           return g.n_functions;
@@ -4134,10 +4158,37 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     // stoch-consumer-6 gyro.z: a line of period 284 s, residual rms 2.6e-4 beside a staircase sigma of 2.0e-4).
     // The output-step check's rule for an effect holds for this structure too: within twice the staircase's
     // sigma, the residual as a whole cannot be told from the rounding, and the axis is not named.
+    // Where the residual follows a function of the inputs, the part of it that function takes is what is asked, as
+    // the output-step check asks an effect what it changes of the fit: the rounding bias is itself a function of
+    // the input and the die temperature (it moves as the bias curve carries each pose's mean through the steps), so
+    // some function of the library matches it in part, on an axis whose static means also carry the dwells'
+    // flicker, which the whole residual's rms counts. `varied39` stoch-consumer-3 accel.x: step 0.13 with 0.33
+    // step of noise ahead, no deterministic effect at all; f_z*T passed the follows bar (LR 41.5 over 108
+    // functions) and the axis was named, the whole residual's rms being above twice the staircase's sigma.
     if (is_structured(w) && R.quant[ua].coarse()) {
-      const Fit f = fit_axis(ax[ua], cols_for(ax[ua], cur), -1);
-      w.residual_rms = B > 0 ? std::sqrt((ax[ua].zr - fitted_means(ax[ua], f)).squaredNorm() / B) : 0.0;
-      w.within_rounding = within_rounding(ua, w.residual_rms);
+      const AxisData& ad = ax[ua];
+      const Fit f = fit_axis(ad, cols_for(ad, cur), -1);
+      const Eigen::VectorXd r = ad.zr - fitted_means(ad, f);
+      w.residual_rms = B > 0 ? std::sqrt(r.squaredNorm() / B) : 0.0;
+      double rms = w.residual_rms;
+      if (w.beyond_reason == "follows" && !follows_cols.empty() && B > 0) {
+        // The functions beside the model's columns (unweighted, as the residual's rms is): the rms of what they add
+        // to the fitted means.
+        Eigen::MatrixXd Xm(B, static_cast<Eigen::Index>(f.kept.size()));
+        for (std::size_t i = 0; i < f.kept.size(); ++i) Xm.col(static_cast<Eigen::Index>(i)) = ad.Xr.col(f.kept[i]);
+        Eigen::MatrixXd Xa(B, Xm.cols() + static_cast<Eigen::Index>(follows_cols.size()));
+        Xa << Xm, follows_F(Eigen::all, follows_cols);
+        const Eigen::VectorXd p0 = Xm.cols() > 0 ? Eigen::VectorXd(Xm * Xm.colPivHouseholderQr().solve(ad.zr))
+                                                 : Eigen::VectorXd(Eigen::VectorXd::Zero(B));
+        const Eigen::VectorXd p1 = Xa * Xa.colPivHouseholderQr().solve(ad.zr);
+        w.shape_rms = std::sqrt((p1 - p0).squaredNorm() / B);
+        rms = w.shape_rms;
+      }
+      w.within_rounding = within_rounding(ua, rms);
+      if (std::getenv("IMUFORGE_DIAG_TRACE"))
+        std::fprintf(stderr, "rounding %s: %s residual rms %.3g, shape rms %.3g, staircase sigma %.3g -> %s\n",
+                     axis_name(a), w.beyond_reason.c_str(), w.residual_rms, w.shape_rms,
+                     std::sqrt(R.stoch[ua].seg_bias_var), w.within_rounding ? "within" : "beyond");
     }
     return w;
   };
@@ -4482,6 +4533,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       // An axis already named on its held-out χ² whose residual is that sinusoid or transient: its signature gets it.
       const double sig_period_s = w.beyond_reason == "sinusoid"    ? w.sinusoid.period_s
                                   : w.beyond_reason == "modulated" ? w.sinusoid.mod_period_s
+                                  : w.beyond_reason == "periodic"  ? w.sinusoid.period_s  // 0 where not asked
                                                                    : 0.0;
       const double sig_tau_s = w.beyond_reason == "settling" ? w.trend.settle_tau_s : 0.0;
       if ((sig_period_s > 0 || sig_tau_s > 0) && over(R.gap_after, a))
@@ -4489,11 +4541,13 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           if (u.axis == axis_name(a)) u.signature = signature_of(a, sig_period_s, sig_tau_s);
       // The whole log rejects the model's own level decisively: by the raise's gain, or by the drift's or
       // settling's own (a warm-up the first temperature ramp mostly takes leaves a transient that a walk raised
-      // 4.6x gains only 15 for and the transient 41 beside it: `unseen` ooc-warmup-0 accel.x).
+      // 4.6x gains only 15 for and the transient 41 beside it: `unseen` ooc-warmup-0 accel.x), or by the line's
+      // sinusoid where the dwells took a periodic bias for wander (assess_wander, reason "periodic").
       const double shape_gain = w.beyond_reason == "drift"      ? w.trend.line_gain
                                 : w.beyond_reason == "settling" ? w.trend.settle_own_gain
                                 : w.beyond_reason == "follows"  ? w.follows.own_gain
                                 : w.beyond_reason == "modulated" ? w.modulated_own_gain
+                                : w.beyond_reason == "periodic" ? w.sinusoid.gain
                                                                 : 0.0;
       if (structured && !w.within_rounding && std::max(w.measured.gain, shape_gain) >= o.wander_unexplained_gain &&
           !over(R.gap_after, a)) {
@@ -5047,12 +5101,35 @@ DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const O
       R.timing_iterations = ti;
       R.mount_iterations = it + 1;
     }
-    if (R0 && R.unexplained.size() > R0->unexplained.size()) {
-      char buf[320];
+    // Nor when an axis the unrotated run held within the threshold goes over it: the rotation the gyro's terms ask
+    // for then breaks another fit, and is not how the case sits. `varied39` random-18: a real gyro cross-coupling
+    // of 3.8e-3 beside a scale asymmetry asked for (-0.39, -2.8, -2.6) mrad (blindgen's mount: 0.40, 0.45, -0.47
+    // about x, y, z); evaluated there, a true accel size effect (x.ry -3.8 mm, snr 6600) left 0.6 % of its signal as
+    // a nonlinear remainder, the form check withdrew it and accel.x stood at held-out chi2/dof 1.7e5, where the
+    // unrotated run had it explained. The count alone let it through: the unrotated run named gyro.x and gyro.y on
+    // the whole log's residual (following w_y^2, w_z^2) at held-out chi2/dof within the threshold.
+    std::string broke;
+    if (R0)
+      for (int a = 0; a < kNumAxes; ++a) {
+        auto over_in = [&](const DiagnosisResult& X) {
+          const auto& g = X.gap_after;
+          const auto ua = static_cast<std::size_t>(a);
+          return g.chi2_dof[ua] > o.unexplained_chi2_dof &&
+                 !(std::isfinite(g.chi2_dof_wander[ua]) && g.chi2_dof_wander[ua] <= o.unexplained_chi2_dof);
+        };
+        if (over_in(R) && !over_in(*R0) && broke.empty()) {
+          char b[160];
+          std::snprintf(b, sizeof b, "%s goes over its noise (held-out chi2/dof %.3g, against %.3g unrotated)", axis_name(a),
+                        R.gap_after.chi2_dof[static_cast<std::size_t>(a)], R0->gap_after.chi2_dof[static_cast<std::size_t>(a)]);
+          broke = b;
+        }
+      }
+    if (R0 && (R.unexplained.size() > R0->unexplained.size() || !broke.empty())) {
+      char buf[420];
       std::snprintf(buf, sizeof buf,
                     "a rotation of the case on the fixture by (%.2g, %.2g, %.2g) mrad was estimated from the gyro cross_coupling "
-                    "or scale_nonlinearity but not used: evaluated there, more axes stay unexplained",
-                    1e3 * rot[0], 1e3 * rot[1], 1e3 * rot[2]);
+                    "or scale_nonlinearity but not used: evaluated there, %s",
+                    1e3 * rot[0], 1e3 * rot[1], 1e3 * rot[2], broke.empty() ? "more axes stay unexplained" : broke.c_str());
       R = std::move(*R0);
       rot = {};
       o.mount_rotation_rad = rot;

@@ -541,6 +541,9 @@ struct DiagnosisResult {
     // A jump or line on an axis with a coarse output step: the final model's residual rms over the blocks, and
     // whether it is within twice the rounding staircase's sigma (then the axis is not named unexplained for it).
     double residual_rms = 0;
+    // Where the residual follows a function (beyond_reason "follows"): the rms of what the function(s) add to the
+    // final model's fitted means, the part asked against the staircase instead of the whole residual (0: not asked).
+    double shape_rms = 0;
     bool within_rounding = false;
     // An adopted random walk whose joint maximum lowered the dwells' flicker: the flicker B it goes with (NaN: the
     // dwells'; Options::wander_K_B).

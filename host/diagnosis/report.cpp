@@ -341,7 +341,9 @@ std::vector<std::string> verdict_lines(const DiagnosisResult& r) {
                : r.wander[u].beyond_reason == "input"    ? std::string("a residual that grows with the input")
                : r.wander[u].beyond_reason == "follows"  ? "a residual that follows " + r.wander[u].follows_input
                                                        : std::string("a bias step")) +
-              ", within the rounding (residual rms " + fmt("%.2g", r.wander[u].residual_rms) + ", under twice its sigma)";
+              (r.wander[u].shape_rms > 0
+                   ? ", within the rounding (what it takes has rms " + fmt("%.2g", r.wander[u].shape_rms) + ", under twice its sigma)"
+                   : ", within the rounding (residual rms " + fmt("%.2g", r.wander[u].residual_rms) + ", under twice its sigma)");
     out.push_back(line);
   }
   return out;
@@ -570,7 +572,8 @@ nlohmann::json to_json(const DiagnosisResult& r) {
                            {"output_step", {{"step", num(r.quant[u].step)}, {"noise_sigma", num(r.quant[u].noise_sigma)},
                                             {"mean_bias_sigma", num(std::sqrt(r.stoch[u].seg_bias_var))},
                                             {"structure_within_rounding", r.wander[u].within_rounding},
-                                            {"residual_rms", num(r.wander[u].residual_rms)}}}};
+                                            {"residual_rms", num(r.wander[u].residual_rms)},
+                                            {"shape_rms", num(r.wander[u].shape_rms)}}}};
   }
   j["noise"] = noise;
   nlohmann::json cells = nlohmann::json::array();
