@@ -132,6 +132,16 @@ def suite(name):
         # from 766 to 8925: a latency fitted at 25 sigma scored -451 %, unselected, gyro.z unnamed. Passes with the
         # timing's block gain on the predictive chi2 (Options::heldout_gain_predictive).
         cases.append(('ooc-axis_skew-44020', 'ooc', 44020, {'ooc': 'axis_skew', 'size': 'varied', 'log_format': 'bin'}))
+        # varied39 stoch-consumer-3 (stop 68): accel.x rounded to 0.13 m/s^2 at 0.33 step of noise beside flicker
+        # B 9.5e-4, no deterministic effect; f_z*T passed the follows bar (LR 41.5 over 108 functions) on a rounding
+        # bias the die temperature carries through the steps, and the axis was named unexplained. Passes with the
+        # rounding rule asked of what the function takes (rms 0.0017, the staircase's sigma 0.0033)
+        cases.append(('stoch-varied-55103', 'stochastic', 55103, {'cls': 'consumer', 'size': 'varied', 'log_format': 'bin'}))
+        # unseen15 ooc-beat_chirp-0 (stop 68): a gyro.z bias beating at ~170 s whose frequency follows the die
+        # temperature; the static dwells read it as a rate random walk of K 4.2e-5 (the part's: 4e-9), the walk
+        # raised on the whole log gained only 22.7 (a line at p 7.5e-11 under it) and gyro.z went unnamed at held-out
+        # chi2/dof 0.83. Passes with the line's own sinusoid weighed (gain 115)
+        cases.append(('ooc-beat_chirp-52010', 'ooc', 52010, {'ooc': 'beat_chirp', 'size': 'varied', 'log_format': 'bin'}))
         return cases
     if name == 'holdout':
         # cases no diagnosis change was tuned on (added at stop 24, after its changes were fixed): stochastic-only
@@ -369,6 +379,15 @@ def suite(name):
         # the varied schedule at new seeds (53000+), whole catalog, added at stop 67 and run on the stop-67 binary
         # and, case by case where the change acts, on the stop-66 one
         return varied_fresh(53000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2, full_catalog=True)
+    if name == 'unseen16':
+        # out-of-catalog kinds written at stop 68 and first run on the stop-67 binary (a gyro biased along the Earth's
+        # magnetic field, mount play reading |w| about another axis, a bias oscillating in the die temperature);
+        # seeds 54000+
+        return unseen_kinds(blindgen.OOC_KINDS_UNSEEN16, 54000)
+    if name == 'varied39':
+        # the varied schedule at new seeds (55000+), whole catalog, added at stop 68 and run on the stop-67 binary
+        # before any change
+        return varied_fresh(55000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2, full_catalog=True)
     if name == 'unseen4':
         # out-of-catalog kinds written at stop 54 and first run on the stop-53 binary (a bias even in the die's
         # temperature rate, an accel cross-axis square, an accel creep after each pose change); seeds 27000+
@@ -751,7 +770,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (a case folder is named after the case and reused while its content hash matches: suites sharing case names need folders of their own when run at once)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'varied23', 'varied24', 'varied25', 'varied26', 'varied27', 'unseen', 'unseen2', 'unseen3', 'unseen4', 'unseen5', 'unseen6', 'varied28', 'unseen7', 'varied29', 'varied30', 'unseen8', 'varied31', 'unseen9', 'varied32', 'unseen10', 'varied33', 'unseen11', 'varied34', 'unseen12', 'varied35', 'unseen13', 'varied36', 'unseen14', 'varied37', 'unseen15', 'varied38'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'varied23', 'varied24', 'varied25', 'varied26', 'varied27', 'unseen', 'unseen2', 'unseen3', 'unseen4', 'unseen5', 'unseen6', 'varied28', 'unseen7', 'varied29', 'varied30', 'unseen8', 'varied31', 'unseen9', 'varied32', 'unseen10', 'varied33', 'unseen11', 'varied34', 'unseen12', 'varied35', 'unseen13', 'varied36', 'unseen14', 'varied37', 'unseen15', 'varied38', 'unseen16', 'varied39'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')

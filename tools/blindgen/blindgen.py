@@ -694,6 +694,18 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     if kind == 'scale_warmup':   # a scale factor settling after power-up (the drive amplitude or the reference
         u = f_imu if o['sensor'] == 'accel' else w_imu  # settling), by time, whatever the die's temperature does
         return o['per_unit'] * np.exp(-t / o['tau_s']) * u[:, j]
+    if kind == 'mag_field':      # a gyro sensitive to the magnetic field (its drive's or sense's magnet, a
+        C = Scenario.attitude(None, ang)  # ferromagnetic package): a bias along the Earth's field as the axis sees
+        m = np.array([math.cos(o['decl_rad']), math.sin(o['decl_rad']), 0.0])  # it. Only the field's horizontal
+        return o['amplitude'] * mtv(C, np.broadcast_to(m, (len(t), 3)))[:, j]  # part: its vertical part turns with
+        # the axis as gravity does, a g-sensitivity the catalog has (a diagnosis that selects g_sensitivity for it is
+        # right), so the case asks only what no catalog term has. amplitude: the horizontal field's share
+    if kind == 'cross_abs_rate':  # play in the gyro's mount: a rotation about another axis k tilts the package the
+        return o['coefficient'] * np.abs(w_imu[:, AX.index(o['input_axis'])])  # same way whichever its sense, so the
+        # axis reads c |w_k| (even in w_k; the catalog's asymmetry is on the axis' own rate, its cross-coupling a product)
+    if kind == 'temp_ripple':    # a quadrature leak whose demodulation phase turns with the die temperature: a bias
+        return o['amplitude'] * np.sin(o['k_rad_per_C'] * (T - o['T0_C']) + o['phase_rad'])  # oscillating in T,
+        # 0.5-1 period over the range (no polynomial in T of the catalog's degree follows it)
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -1216,9 +1228,14 @@ OOC_KINDS_UNSEEN14 = ['temp_knee', 'zero_burst', 'drive_current']
 # rate (a zero-rate threshold), a slow sinusoidal bias whose frequency follows the die temperature (a regulator
 # beating with the sample clock), a scale factor settling after power-up by time
 OOC_KINDS_UNSEEN15 = ['dead_zone', 'beat_chirp', 'scale_warmup']
+# written at stop 68 and first run on the stop-67 binary (suite 'unseen16'): a gyro biased along the Earth's magnetic
+# field's horizontal part (its first version, with the vertical part, had two of three cases select g_sensitivity
+# for that part, which is right: the catalog has it), a gyro reading the magnitude of the rate about another axis
+# (mount play), a bias oscillating in the die temperature (a quadrature leak with a temperature-dependent phase)
+OOC_KINDS_UNSEEN16 = ['mag_field', 'cross_abs_rate', 'temp_ripple']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g',
-                 'range_switch', 'dead_zone')
+                 'range_switch', 'dead_zone', 'mag_field', 'cross_abs_rate')
 OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple', 'knee', 'mount_flex')
 
 
@@ -1350,6 +1367,14 @@ def ooc_params(ooc_kind, amp, rng, scenario):
     if ooc_kind == 'scale_warmup':  # amp at the largest input at power-up; settles with tau 120-600 s
         return dict(per_unit=None, amplitude=amp, tau_s=float(rng.uniform(120, 600)),
                     _top_rate=math.radians(max(scenario['rates_dps'])))
+    if ooc_kind == 'mag_field':  # amp along the horizontal field, pointing anywhere in the level plane
+        return dict(amplitude=amp, decl_rad=float(rng.uniform(0, 2 * np.pi)))
+    if ooc_kind == 'cross_abs_rate':  # amp at the top rate about the other axis
+        return dict(coefficient=amp / math.radians(max(scenario['rates_dps'])), input_axis=None)
+    if ooc_kind == 'temp_ripple':  # 3-6 rad of phase over the plateaus' range
+        lo, hi = min(scenario['plateaus_C']), max(scenario['plateaus_C'])
+        return dict(amplitude=amp, T0_C=float(lo), k_rad_per_C=float(rng.uniform(3, 6)) / max(hi - lo, 1.0),
+                    phase_rad=float(rng.uniform(0, 2 * np.pi)))
     if ooc_kind == 'mount_flex':  # amp at the top rate and 1 g along the input axis
         return dict(coefficient=amp / (9.80665 * math.radians(max(scenario['rates_dps'])) ** 2), input_axis=None)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
@@ -1379,6 +1404,8 @@ def ooc_fill_axis(o, rng):
     if o['kind'] == 'scale_temp_hyst':
         top = o.pop('_top_rate')
         o['per_unit'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
+    if o['kind'] == 'cross_abs_rate':
+        o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
     if o['kind'] == 'mount_flex':
         o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
     if o['kind'] == 'tdot_scale':
@@ -1598,6 +1625,17 @@ def selftest():
     # hysteresis tracker
     d = hysteresis_direction(np.array([25, 25.3, 26, 27, 26.8, 26.4, 26.0, 25.5, 26.2]), 0.5)
     check('hysteresis d', list(d) == [0, 0, 1, 1, 1, -1, -1, -1, 1], str(list(d)))
+    # the mag_field term is the horizontal field seen by the axes: over any attitude the three axes' terms form a unit
+    # vector (times the amplitude) with no part along gravity (the specific force at rest)
+    rs = np.random.default_rng(5)
+    ang = rs.uniform(-np.pi, np.pi, (200, 3))
+    f_rest = mtv(Scenario.attitude(None, ang), np.broadcast_to(np.array([0.0, 0.0, -9.8]), (200, 3)))
+    tt = np.zeros(200)
+    mb = np.stack([ooc_signal({'kind': 'mag_field', 'sensor': 'gyro', 'axis': a, 'amplitude': 2.0, 'decl_rad': 0.7},
+                              tt, ang, f_rest * 0, f_rest, tt, tt) for a in AX], -1)
+    check('mag_field: |m| = amplitude, m . f = 0 at rest',
+          np.allclose(np.linalg.norm(mb, axis=1), 2.0) and np.max(np.abs(np.sum(mb * f_rest, axis=1))) < 1e-9,
+          '%.3g' % np.max(np.abs(np.sum(mb * f_rest, axis=1))))
     return ok
 
 
