@@ -59,6 +59,12 @@ const double kNaN = std::numeric_limits<double>::quiet_NaN();
 bool same_pair(const DiagnosisResult::Ambiguity& x, const std::string& a, const std::string& b) {
   return (x.chosen == a && x.alternative == b) || (x.chosen == b && x.alternative == a);
 }
+// Whether axis a of gap g is over the unexplained threshold: its held-out χ²/dof above it, and not within it in the
+// GLS fit under an adopted whole-log wander (Gap::chi2_dof_wander, NaN where none is adopted).
+bool over_threshold(const Gap& g, int a, double chi2_dof_max) {
+  const auto ua = static_cast<std::size_t>(a);
+  return g.chi2_dof[ua] > chi2_dof_max && !(std::isfinite(g.chi2_dof_wander[ua]) && g.chi2_dof_wander[ua] <= chi2_dof_max);
+}
 // The mount rotation's corrections (diagnose(), "Mount rotation"): χ² of 3 dof a first one must pass (p 1e-3), and
 // a further one (p 0.01).
 const double kMountFirstChi2 = 16.27, kMountNextChi2 = 11.34;
@@ -3604,10 +3610,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   // needed for the axis to be explained, or remove at least one noise variance per block (its held-out
   // signal is as large as the noise). The others are withdrawn: they are not an explanation. Judging each
   // effect alone keeps a sensor's real effects when one large effect leaves an axis above the noise.
-  auto over = [&](const Gap& g, int a) {
-    const auto ua = static_cast<std::size_t>(a);
-    return g.chi2_dof[ua] > o.unexplained_chi2_dof && !(std::isfinite(g.chi2_dof_wander[ua]) && g.chi2_dof_wander[ua] <= o.unexplained_chi2_dof);
-  };
+  auto over = [&](const Gap& g, int a) { return over_threshold(g, a, o.unexplained_chi2_dof); };
   // A signal of rms `rms` on axis a within a coarse output step's rounding staircase (twice its σ): it cannot be
   // told from the rounding (the output-step check of an effect; the whole-log residual's structure).
   auto within_rounding = [&](std::size_t ua, double rms) {
@@ -5111,12 +5114,7 @@ DiagnosisResult diagnose_timed(SampleSource& src, const BaseModel& base, const O
     std::string broke;
     if (R0)
       for (int a = 0; a < kNumAxes; ++a) {
-        auto over_in = [&](const DiagnosisResult& X) {
-          const auto& g = X.gap_after;
-          const auto ua = static_cast<std::size_t>(a);
-          return g.chi2_dof[ua] > o.unexplained_chi2_dof &&
-                 !(std::isfinite(g.chi2_dof_wander[ua]) && g.chi2_dof_wander[ua] <= o.unexplained_chi2_dof);
-        };
+        auto over_in = [&](const DiagnosisResult& X) { return over_threshold(X.gap_after, a, o.unexplained_chi2_dof); };
         if (over_in(R) && !over_in(*R0) && broke.empty()) {
           char b[160];
           std::snprintf(b, sizeof b, "%s goes over its noise (held-out chi2/dof %.3g, against %.3g unrotated)", axis_name(a),
