@@ -1,14 +1,18 @@
 // The diagnosis pipeline (docs/diagnosis.md): pass 0 (noise, reference), pass 1 (block means at the
 // possibly shifted time), the whitened per-axis design, folds, forward–backward selection, the
-// unexplained verdict, the final joint fit, cells and plot data. One piece, ~4,200 lines, because every
+// unexplained verdict, the final joint fit, cells and plot data. One piece, ~5,400 lines, because every
 // stage reads the same per-axis design and fold statistics (AxisData) and the time-shift iteration
 // re-runs the whole chain; splitting it would pass that state through a dozen signatures. The fits and
 // held-out scores themselves live in host/estimator (shared with the solver); the noise model in
 // noise_model.*, the Allan and signature statistics in stats.*, the reference-step test and lag probe in
-// step_lag.*, the rate table's axis errors in table_errors.*.
+// step_lag.*, the rate table's axis errors in table_errors.*. What runs on more than one thread (the log read
+// ahead, the regressors' block sums, the wander search's lines) gives the one-thread answer to the last bit:
+// concurrency.h, prefetch.*, regressor_sums.*.
 #include "host/diagnosis/diagnose.h"
 #include "host/diagnosis/dropouts.h"
 #include "host/diagnosis/glitches.h"
+#include "host/diagnosis/prefetch.h"
+#include "host/diagnosis/regressor_sums.h"
 #include "host/diagnosis/output_bits.h"
 #include "host/diagnosis/step_lag.h"
 #include "host/diagnosis/table_errors.h"
@@ -737,6 +741,9 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   for (auto& a : out.allan_holding) a.set_tau0(static_cast<double>(m0) / p0.fs);
   const int np[2] = {static_cast<int>(ids[0].size()), static_cast<int>(ids[1].size())};
   const model::RegressorPlan plan[2] = {model::RegressorPlan(Sensor::kAccel, ids[0]), model::RegressorPlan(Sensor::kGyro, ids[1])};
+  // The regressors' sums on a thread of their own where there is one (regressor_sums.h): a third of the pass.
+  std::optional<RegressorSums> sums;
+  if (want_regressors) sums.emplace(plan[0], plan[1], opt.T_ref_C);
 
   // The logged temperature is noisy: it is smoothed once (model::kLoggedTempSmoothing_s, measure.h) and every
   // tracker reads the smoothed value. A given threshold runs its one tracker; otherwise the grid's trackers run
@@ -1039,8 +1046,6 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
     if (!acc.open) return;
     Block& b = acc.b;
     const double n = static_cast<double>(b.n);
-    if (want_regressors)
-      for (int s = 0; s < 2; ++s) b.J[s] /= n;
     if (table_cols) table_group.flush(table_d, table_shared, b.D);
     b.D /= n;
     for (int a = 0; a < kNumAxes; ++a) b.z[a] /= n;
@@ -1211,10 +1216,6 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
         acc.b.segment = cur.segment;
         acc.b.unit = unit;
         acc.b.t0 = cur.t_s;
-        if (want_regressors) {
-          acc.b.J[0] = Eigen::MatrixXd::Zero(3, np[0]);
-          acc.b.J[1] = Eigen::MatrixXd::Zero(3, np[1]);
-        }
         for (int k = 0; k < 3; ++k) {
           acc.f0[k] = acc.fmin[k] = acc.fmax[k] = cur.f[k];
           acc.w0[k] = cur.w[k];
@@ -1230,9 +1231,8 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
           for (model::Vec3* v : {&x.f, &x.w, &x.fdot, &x.wdot}) *v += dl.cross(*v);
       }
       Block& b = acc.b;
-      if (want_regressors) {
-        for (int s = 0; s < 2; ++s) plan[s].accumulate(ins[s], opt.T_ref_C, b.J[s]);
-      }
+      // The open block is the next one close_block() keeps.
+      if (sums) sums->add(static_cast<int>(out.blocks.size()), ins);
       if (table_cols) {
         physics::TableState st[2];
         bool ok[2] = {false, false};
@@ -1319,6 +1319,21 @@ Pass1 run_pass1(SampleSource& src_in, const Pass0& p0, const Options& opt, const
   }
   close_block();
   flush_run();
+  if (sums) {
+    // Each block's regressor means: its sums (summed in sample order, RegressorSums) over its samples.
+    std::vector<std::array<Eigen::MatrixXd, 2>> J = sums->take();
+    for (std::size_t i = 0; i < out.blocks.size(); ++i) {
+      Block& b = out.blocks[i];
+      for (int s = 0; s < 2; ++s) {
+        if (i < J.size()) {
+          b.J[s] = std::move(J[i][static_cast<std::size_t>(s)]);
+          b.J[s] /= static_cast<double>(b.n);
+        } else {
+          b.J[s] = Eigen::MatrixXd::Zero(3, np[s]);
+        }
+      }
+    }
+  }
   out.n_units = unit + 1;
   // A dwell cut by a reference gap (a reference-free pose of several still parts, a dropout) is still one
   // dwell: its parts share one reference, so withholding one part while fitting another is no withholding.
@@ -1890,7 +1905,9 @@ namespace {
 DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const Options& opt, const TimeShift shift[2],
                               const OutputWords* words) {
   FixtureCorrectedSource fixture_src(src_in, opt);
-  SampleSource& src = fixture_src.active() ? static_cast<SampleSource&>(fixture_src) : src_in;
+  // The re-evaluated reference (the table's kinematics per sample) on a thread of its own (prefetch.h).
+  PrefetchSource fixture_ahead(fixture_src);
+  SampleSource& src = fixture_src.active() ? static_cast<SampleSource&>(fixture_ahead) : src_in;
   DiagnosisResult R;
   R.alpha = opt.alpha;
   R.base_effects = base.effect_names;
@@ -4196,17 +4213,20 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     return w;
   };
   std::array<std::optional<DiagnosisResult::Wander>, kNumAxes> wander_asked;
-  std::set<ParamId> wander_asked_ids;  // the model they were asked under
-  // assess_wander(a) under `cur`, asked once per model (a whole-log search): the unexplained check, the stand-in
-  // check and the final model's wander ask the same question while `cur` is unchanged.
+  std::array<std::optional<std::vector<int>>, kNumAxes> wander_asked_cols;  // the axis's columns they were asked under
+  // assess_wander(a) under `cur`, asked once per model of the axis (a whole-log search): the unexplained check, the
+  // stand-in check and the final model's wander ask the same question while the axis's columns are unchanged.
+  // assess_wander(a) sees `cur` only through them (cols_for(ax[a], cur)), so an effect withdrawn from the other
+  // sensor, or from this one where it has no column on a, does not ask it again (on the bench's 1 h table case
+  // four of the six axes were asked twice for the same answer, 3 s of 41).
   auto wander_now = [&](int a) -> const std::optional<DiagnosisResult::Wander>& {
-    if (wander_asked_ids != cur) {
-      wander_asked = {};
-      wander_asked_ids = cur;
+    const auto ua = static_cast<std::size_t>(a);
+    std::vector<int> cols = cols_for(ax[ua], cur);
+    if (!wander_asked_cols[ua] || *wander_asked_cols[ua] != cols) {
+      wander_asked[ua] = assess_wander(a);
+      wander_asked_cols[ua] = std::move(cols);
     }
-    std::optional<DiagnosisResult::Wander>& w = wander_asked[static_cast<std::size_t>(a)];
-    if (!w) w = assess_wander(a);
-    return w;
+    return wander_asked[ua];
   };
   // The effect's GLS LR on one axis against the model without it, both fitted to the blocks as whitened in `ad`, and
   // whether it is significant there at the selection's Bonferroni level. chi2_dof_without: that fit's χ²/dof.
@@ -5332,9 +5352,13 @@ std::array<bool, 2> check_axis_timing(DiagnosisResult& r, const Options& opt) {
 // (the first to read) streams the log through it, with a look-ahead (a run's length; about a thousand rows), and
 // replays its fixes on every later pass; an axis that held any is named, with what the rest of its residual says.
 DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options& opt) {
-  DropoutFilterSource bridged(src, opt.output_lsb, opt.dropouts);
+  // The log read on a thread of its own, filtered on another, each a few batches ahead of the next (prefetch.h):
+  // on the first pass, where the filters search, they take as long as reading.
+  PrefetchSource raw(src);
+  DropoutFilterSource bridged(raw, opt.output_lsb, opt.dropouts);
   GlitchFilterSource clean(bridged, opt.glitch_z);
-  DiagnosisResult R = diagnose_timed(clean, base, opt);
+  PrefetchSource ahead(clean);
+  DiagnosisResult R = diagnose_timed(ahead, base, opt);
   // A timing one axis alone carries (AxisTiming): without the triad's timing where the other two show none.
   std::array<bool, 2> withdraw = check_axis_timing(R, opt);
   if (withdraw[0] || withdraw[1]) {
@@ -5343,7 +5367,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
       if (withdraw[static_cast<std::size_t>(si)]) o.excluded.push_back({static_cast<Sensor>(si), Effect::kTiming});
     const std::array<AxisTiming, kNumAxes> seen = R.axis_timing;
     const OutputWords words = R.stuck_bits;
-    R = diagnose_timed(clean, base, o, &words);
+    R = diagnose_timed(ahead, base, o, &words);
     R.axis_timing = seen;
     // A timing the reference steps force (a shift of a sample or more: diagnose_timed) stays whatever the candidates.
     for (int si = 0; si < 2; ++si)
@@ -5358,6 +5382,7 @@ DiagnosisResult diagnose(SampleSource& src, const BaseModel& base, const Options
         R.warnings.push_back(buf);
       }
   }
+  ahead.idle();  // the filters are asked for their summaries: nothing reads through them any more
   R.glitches = clean.summary();
   R.dropouts = bridged.summary();
   // An axis named on a basis of its own; take_over: the basis replaces the one that named it already (the held-out

@@ -3,8 +3,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
+#include "host/diagnosis/concurrency.h"
 #include "host/diagnosis/step_lag.h"
 #include "host/estimator/robust.h"
 
@@ -106,8 +108,16 @@ std::array<StepLag, 2> probe_motion_lag(SampleSource& src, double fs, double dur
   for (long i = 0; i < N; ++i) bad[static_cast<std::size_t>(i) + 1] = bad[static_cast<std::size_t>(i)] + (b.ok[static_cast<std::size_t>(i)] ? 0 : 1);
   const double* thr = kLagProbeMinChange;  // a window's output range, at least
   const bool trace = std::getenv("IMUFORGE_DIAG_TRACE") != nullptr;
-  std::vector<double> E(static_cast<std::size_t>(2 * L + 1)), sorted(E.size());
-  for (int s = 0; s < 2; ++s) {
+  // The two triads are searched at once (concurrency.h): each owns its scratch, its result and its trace, and the
+  // traces print in triad order after both.
+  std::string trace_text[2];
+  auto tracef = [&](int s, const char* fmt, auto... args) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, fmt, args...);
+    trace_text[s] += buf;
+  };
+  auto per_sensor = [&](int s) {
+    std::vector<double> E(static_cast<std::size_t>(2 * L + 1)), sorted(E.size());
     std::vector<LocalLag> lags;
     for (long i0 = L; i0 + W + L <= N; i0 += W / 2) {
       if (bad[static_cast<std::size_t>(i0 + W + L)] - bad[static_cast<std::size_t>(i0 - L)] != 0) continue;
@@ -160,10 +170,10 @@ std::array<StepLag, 2> probe_motion_lag(SampleSource& src, double fs, double dur
     const std::size_t n = lags.size();
     r.n_steps = static_cast<int>(n);
     if (trace) {
-      std::fprintf(stderr, "motion lag %d: %zu local lags\n", s, n);
-      for (std::size_t i = 0; i < n; i += std::max<std::size_t>(1, n / 40)) std::fprintf(stderr, "  t %.1f lag %.4f\n", lags[i].t_s, lags[i].lag_s);
+      tracef(s, "motion lag %d: %zu local lags\n", s, n);
+      for (std::size_t i = 0; i < n; i += std::max<std::size_t>(1, n / 40)) tracef(s, "  t %.1f lag %.4f\n", lags[i].t_s, lags[i].lag_s);
     }
-    if (n < 8) continue;
+    if (n < 8) return;
     // The line most lags agree with: candidates through pairs of a spread subset (and level lines through each),
     // scored by the count within tol. Aliases (a lag a period of the motion off) scatter; the clock is a line.
     const double tol = std::max(1.5 * hb, 0.01);
@@ -221,7 +231,7 @@ std::array<StepLag, 2> probe_motion_lag(SampleSource& src, double fs, double dur
       if (next_cut == cut && iter > 0) break;
       cut = next_cut;
     }
-    if (n_in < 3 || !(det > 0)) continue;
+    if (n_in < 3 || !(det > 0)) return;
     r.n_outliers = static_cast<int>(n) - n_in;
     r.latency_s = ba;
     r.ppm = bc * 1e6;
@@ -233,9 +243,12 @@ std::array<StepLag, 2> probe_motion_lag(SampleSource& src, double fs, double dur
     r.max_abs_s = std::max(std::fabs(ba), std::fabs(ba + bc * duration_s));
     r.valid = n_in >= 8 && 10 * n_in >= 6 * static_cast<int>(n);
     if (trace)
-      std::fprintf(stderr, "motion lag %d: line %d of %zu: latency %.5g s ppm %.5g rms %.3g s valid %d\n", s, n_in, n, ba,
-                   bc * 1e6, r.rms_s, r.valid);
-  }
+      tracef(s, "motion lag %d: line %d of %zu: latency %.5g s ppm %.5g rms %.3g s valid %d\n", s, n_in, n, ba, bc * 1e6,
+             r.rms_s, r.valid);
+  };
+  run_concurrently([&] { per_sensor(0); }, [&] { per_sensor(1); });
+  if (trace)
+    for (const std::string& t : trace_text) std::fputs(t.c_str(), stderr);
   return out;
 }
 

@@ -1,4 +1,5 @@
 #include "host/diagnosis/noise_model.h"
+#include "host/diagnosis/concurrency.h"
 #include "host/diagnosis/stats.h"
 #include "host/estimator/estimator.h"
 
@@ -246,13 +247,19 @@ std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const s
   std::array<WholeLogWander, 3> out;
   const int n = static_cast<int>(rows.rows()), c = static_cast<int>(rows.cols()), P = c - 1;
   if (n <= P + 2 || !(duration_s > 0)) return out;
-  Eigen::MatrixXd innov(n, c);
-  Eigen::VectorXd S(n);
+  // One line's evaluation state: the last evaluation's innovations, its standardised residual e and checks, and its
+  // GLS fit's χ². Each line owns one, so the lines can be searched at once (below).
+  struct Eval {
+    Eigen::MatrixXd innov;
+    Eigen::VectorXd S, e;
+    double max_abs_z = 0, whiteness_p = 1, autocorr_sq = 0, rss_last = 0;
+    Eval(int n, int c) : innov(n, c), S(n), e(n) {}
+  };
   // −2 log L_REML: Σ log S + χ² of the GLS fit + log det of the columns' information.
-  double max_abs_z = 0, whiteness_p = 1, autocorr_sq = 0;
-  Eigen::VectorXd e(n);  // the last evaluation's standardised innovations
-  double rss_last = 0;   // and its GLS fit's χ²
-  auto m2ll = [&](const StochasticModel& mm, double rw0) {
+  auto m2ll = [&](Eval& ev, const StochasticModel& mm, double rw0) {
+    Eigen::MatrixXd& innov = ev.innov;
+    Eigen::VectorXd &S = ev.S, &e = ev.e;
+    double &max_abs_z = ev.max_abs_z, &whiteness_p = ev.whiteness_p, &autocorr_sq = ev.autocorr_sq, &rss_last = ev.rss_last;
     double logS = 0;
     const estimator::NormalEquations ne = gls_normal_equations(mm, t_s, dur_s, rows, rw0, seg_of, nullptr, &logS, &innov, &S);
     // The columns' GLS fit on the shared estimator core; its kept columns' information is cov⁻¹.
@@ -308,15 +315,18 @@ std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const s
   // ... while what the line is reported and judged material against is the level the held-out verdict carries.
   const double avar_seen = m0.avar(tau_long);  // ≤ avar0: m0 has lost at most its flicker
   if (!(avar_seen > 0)) return out;
-  const double base = m2ll(m0, rw_prior_var);
+  Eval ev_flicker(n, c), ev_walk(n, c);
+  const double base = m2ll(ev_flicker, m0, rw_prior_var);
   if (!std::isfinite(base)) return out;
   const double step = std::pow(2.0, 0.25);
   // Each line's maximiser, then its residual checks (jump, whiteness) under it.
-  auto finish = [&](WholeLogWander& w, double line_best) {
+  auto finish = [&](Eval& ev, WholeLogWander& w, double line_best) {
     w.gain = base - line_best;
     double rw0 = 0;
     const StochasticModel mm = with_wander(m, &w, duration_s, rw_prior_var, rw0);
-    m2ll(mm, rw0);
+    m2ll(ev, mm, rw0);
+    const Eigen::VectorXd& e = ev.e;
+    const double max_abs_z = ev.max_abs_z, whiteness_p = ev.whiteness_p, autocorr_sq = ev.autocorr_sq, rss_last = ev.rss_last;
     w.max_abs_z = max_abs_z;
     w.whiteness_p = whiteness_p;
     w.autocorr_sq = autocorr_sq;
@@ -377,94 +387,103 @@ std::array<WholeLogWander, 3> whole_log_wander(const StochasticModel& m, const s
       }
     }
   };
-  // Flicker: the bank's σ raised (a bank exists whenever the Allan fit had points).
-  if (!m.bank_tau_s.empty() && flicker_from > 0) {
-    StochasticModel mf = m0;
-    WholeLogWander& w = out[0];
-    double line_best = base;
-    for (double s = (no_flicker_seen ? 0.25 : 1.0) * flicker_from * step;; s *= step) {
-      mf.bank_sigma = mf.bank_sigma_lik = s;
-      const double ratio = std::sqrt(mf.avar(tau_long) / avar0);
-      if (ratio > ratio_max) break;
-      const double v = m2ll(mf, rw_prior_var);
-      if (!std::isfinite(v)) break;
-      if (v < line_best) {
-        line_best = v;
-        w.kind = WholeLogWander::kFlicker;
-        w.bank_sigma = s;
-        w.B = flicker_B_of_sigma(s, m.bank_tau_s);
-        w.limit_ratio = ratio;
-        w.ratio = std::sqrt(mf.avar(tau_long) / avar_seen);
-      } else if (v > line_best + 10.0) {
-        break;  // far past this line's maximum (the likelihood is unimodal along one level)
-      }
-    }
-    if (w.kind != WholeLogWander::kNone) finish(w, line_best);
-  }
-  // The verdict's floor: where the dwells' point estimate of the flicker is below the likelihood's level, the
-  // flicker's maximiser between the two, and its gain over the point estimate (WholeLogWander::below_likelihood).
-  if (m.bank_sigma > 0 && m.bank_sigma < flicker_from && !no_flicker_seen) {
-    StochasticModel mf = m0;
-    mf.bank_sigma = mf.bank_sigma_lik = m.bank_sigma;
-    const double avar_point = mf.avar(tau_long);
-    const double base_seen = m2ll(mf, rw_prior_var);
-    WholeLogWander& w = out[2];
-    double line_best = base_seen, s_best = 0;
-    for (double s = m.bank_sigma * step;; s *= step) {
-      const bool last = !(s * step < flicker_from);
-      if (last) s = flicker_from;  // the likelihood's own level closes the range (its −2 log L is `base`)
-      mf.bank_sigma = mf.bank_sigma_lik = s;
-      const double v = last ? base : m2ll(mf, rw_prior_var);
-      if (std::isfinite(v) && v < line_best) line_best = v, s_best = s;
-      if (last) break;
-    }
-    if (s_best > 0) {
-      w.kind = WholeLogWander::kFlicker;
-      w.below_likelihood = true;
-      w.bank_sigma = s_best;
-      w.B = flicker_B_of_sigma(s_best, m.bank_tau_s);
-      mf.bank_sigma = mf.bank_sigma_lik = s_best;
-      w.limit_ratio = std::sqrt(mf.avar(tau_long) / avar0);
-      w.ratio = std::sqrt(mf.avar(tau_long) / avar_point);  // against the point estimate the verdict carries
-      finish(w, line_best);
-      w.gain_seen = base_seen - line_best;
-    }
-  }
-  // Random walk: K raised from its fit, or from where it adds 1 % to the Allan variance at D/4, jointly with the
-  // flicker: short dwells read the start of a random walk as flicker, and a walk raised beside that flicker held
-  // fits the whole log short of its size.
-  {
-    WholeLogWander& w = out[1];
-    double line_best = base;
-    const double k_start = std::max(m.K, 0.1 * std::sqrt(3.0 * avar0 / tau_long));
-    for (int j = 0; j <= (m0.bank_sigma > 0 ? 5 : 0); ++j) {
-      StochasticModel mk = m0;
-      mk.bank_sigma = mk.bank_sigma_lik = j == 5 ? 0.0 : m0.bank_sigma / static_cast<double>(1 << j);
-      double fl_best = std::numeric_limits<double>::infinity();
-      for (double k = k_start * step;; k *= step) {
-        mk.K = k;
-        const double ratio = std::sqrt(mk.avar(tau_long) / avar0);
+  // The flicker line and the verdict's floor (out[0], out[2]) on one thread, the random walk (out[1]) on another
+  // where the machine has two: the lines share nothing but their inputs, so the answer is the same to the last bit.
+  // The search is most of a diagnosis's work after the log's passes (a few whole-log searches per axis and per
+  // selected effect), and the walk's line, the longest, is about half of it.
+  auto flicker_lines = [&](Eval& ev) {
+    // Flicker: the bank's σ raised (a bank exists whenever the Allan fit had points).
+    if (!m.bank_tau_s.empty() && flicker_from > 0) {
+      StochasticModel mf = m0;
+      WholeLogWander& w = out[0];
+      double line_best = base;
+      for (double s = (no_flicker_seen ? 0.25 : 1.0) * flicker_from * step;; s *= step) {
+        mf.bank_sigma = mf.bank_sigma_lik = s;
+        const double ratio = std::sqrt(mf.avar(tau_long) / avar0);
         if (ratio > ratio_max) break;
-        const double v = m2ll(mk, k * k * duration_s / 6.0);
+        const double v = m2ll(ev, mf, rw_prior_var);
         if (!std::isfinite(v)) break;
-        fl_best = std::min(fl_best, v);
         if (v < line_best) {
           line_best = v;
-          w.kind = WholeLogWander::kRandomWalk;
-          w.K = k;
-          w.bank_sigma = mk.bank_sigma;
-          w.B = mk.bank_sigma > 0 ? flicker_B_of_sigma(mk.bank_sigma, m.bank_tau_s) : 0.0;
-          w.flicker_lowered = j > 0;
+          w.kind = WholeLogWander::kFlicker;
+          w.bank_sigma = s;
+          w.B = flicker_B_of_sigma(s, m.bank_tau_s);
           w.limit_ratio = ratio;
-          w.ratio = std::sqrt(mk.avar(tau_long) / avar_seen);
-        } else if (v > (j == 0 ? line_best : fl_best) + 10.0) {  // j = 0: past this line's maximum, as above
-          break;
+          w.ratio = std::sqrt(mf.avar(tau_long) / avar_seen);
+        } else if (v > line_best + 10.0) {
+          break;  // far past this line's maximum (the likelihood is unimodal along one level)
         }
       }
-      if (fl_best > line_best + 10.0) break;  // past the flicker's maximum along the profile
+      if (w.kind != WholeLogWander::kNone) finish(ev, w, line_best);
     }
-    if (w.kind != WholeLogWander::kNone) finish(w, line_best);
-  }
+    // The verdict's floor: where the dwells' point estimate of the flicker is below the likelihood's level, the
+    // flicker's maximiser between the two, and its gain over the point estimate (WholeLogWander::below_likelihood).
+    if (m.bank_sigma > 0 && m.bank_sigma < flicker_from && !no_flicker_seen) {
+      StochasticModel mf = m0;
+      mf.bank_sigma = mf.bank_sigma_lik = m.bank_sigma;
+      const double avar_point = mf.avar(tau_long);
+      const double base_seen = m2ll(ev, mf, rw_prior_var);
+      WholeLogWander& w = out[2];
+      double line_best = base_seen, s_best = 0;
+      for (double s = m.bank_sigma * step;; s *= step) {
+        const bool last = !(s * step < flicker_from);
+        if (last) s = flicker_from;  // the likelihood's own level closes the range (its −2 log L is `base`)
+        mf.bank_sigma = mf.bank_sigma_lik = s;
+        const double v = last ? base : m2ll(ev, mf, rw_prior_var);
+        if (std::isfinite(v) && v < line_best) line_best = v, s_best = s;
+        if (last) break;
+      }
+      if (s_best > 0) {
+        w.kind = WholeLogWander::kFlicker;
+        w.below_likelihood = true;
+        w.bank_sigma = s_best;
+        w.B = flicker_B_of_sigma(s_best, m.bank_tau_s);
+        mf.bank_sigma = mf.bank_sigma_lik = s_best;
+        w.limit_ratio = std::sqrt(mf.avar(tau_long) / avar0);
+        w.ratio = std::sqrt(mf.avar(tau_long) / avar_point);  // against the point estimate the verdict carries
+        finish(ev, w, line_best);
+        w.gain_seen = base_seen - line_best;
+      }
+    }
+  };
+  auto walk_line = [&](Eval& ev) {
+    // Random walk: K raised from its fit, or from where it adds 1 % to the Allan variance at D/4, jointly with the
+    // flicker: short dwells read the start of a random walk as flicker, and a walk raised beside that flicker held
+    // fits the whole log short of its size.
+    {
+      WholeLogWander& w = out[1];
+      double line_best = base;
+      const double k_start = std::max(m.K, 0.1 * std::sqrt(3.0 * avar0 / tau_long));
+      for (int j = 0; j <= (m0.bank_sigma > 0 ? 5 : 0); ++j) {
+        StochasticModel mk = m0;
+        mk.bank_sigma = mk.bank_sigma_lik = j == 5 ? 0.0 : m0.bank_sigma / static_cast<double>(1 << j);
+        double fl_best = std::numeric_limits<double>::infinity();
+        for (double k = k_start * step;; k *= step) {
+          mk.K = k;
+          const double ratio = std::sqrt(mk.avar(tau_long) / avar0);
+          if (ratio > ratio_max) break;
+          const double v = m2ll(ev, mk, k * k * duration_s / 6.0);
+          if (!std::isfinite(v)) break;
+          fl_best = std::min(fl_best, v);
+          if (v < line_best) {
+            line_best = v;
+            w.kind = WholeLogWander::kRandomWalk;
+            w.K = k;
+            w.bank_sigma = mk.bank_sigma;
+            w.B = mk.bank_sigma > 0 ? flicker_B_of_sigma(mk.bank_sigma, m.bank_tau_s) : 0.0;
+            w.flicker_lowered = j > 0;
+            w.limit_ratio = ratio;
+            w.ratio = std::sqrt(mk.avar(tau_long) / avar_seen);
+          } else if (v > (j == 0 ? line_best : fl_best) + 10.0) {  // j = 0: past this line's maximum, as above
+            break;
+          }
+        }
+        if (fl_best > line_best + 10.0) break;  // past the flicker's maximum along the profile
+      }
+      if (w.kind != WholeLogWander::kNone) finish(ev, w, line_best);
+    }
+  };
+  run_concurrently([&] { flicker_lines(ev_flicker); }, [&] { walk_line(ev_walk); });
   return out;
 }
 

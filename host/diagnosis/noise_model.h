@@ -62,7 +62,9 @@ void flicker_upper_limit(const std::vector<AllanAccumulator::Point>& pts, double
 // checks. The third line is searched only where the dwells' point estimate of the flicker lies below the
 // likelihood's level (WholeLogWander::below_likelihood).
 // rows: [z | x] per block in time order, as whiten_segment takes them. O(grid · n · (P + states²)), the random-walk
-// line up to six times.
+// line up to six times. The flicker line with the floor, and the random-walk line, are searched at once where the
+// machine has two cores (concurrency.h): each owns its evaluations, and the answer is the one-thread answer to the
+// last bit.
 struct WholeLogWander {
   enum Kind { kNone, kFlicker, kRandomWalk } kind = kNone;
   // kFlicker: the maximiser and its flicker B. kRandomWalk: the flicker that goes with the walk (the walk is raised

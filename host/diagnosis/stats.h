@@ -75,7 +75,9 @@ NoiseFit fit_noise_terms(const std::vector<AllanAccumulator::Point>& pts, unsign
 // a lower top frequency, where n × frequencies would pass 4e7: O(n²) otherwise); the power
 // is the χ²(2)/2 of the best-fitting sinusoid (Exp(1) under white noise at each frequency). false_alarm_p: Baluev's
 // (2008) bound for the largest of them over the range searched, valid for irregular sampling. O(min(n², 4e7)) by
-// trigonometric recurrence.
+// trigonometric recurrence. The sums of cos², sin² and cos·sin per frequency depend on t_s alone and are kept per
+// thread for the last four grids (keyed by the times' bits): a later call over the same times skips them and gives
+// the powers a first call would, to the last bit. Thread-safe (nothing shared between threads).
 struct SpectralLine {
   double power = 0, false_alarm_p = 1, period_s = 0;
 };

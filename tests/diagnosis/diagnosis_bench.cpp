@@ -52,17 +52,25 @@ void run_case(const char* title, const std::string& log, const json& camp, const
   }
 }
 
+// Usage: diagnosis_bench [LOG [CASE]]. CASE (plain, mounted or table) runs that case alone, for profiling one path.
 int main(int argc, char** argv) {
   const std::string log = argc > 1 ? argv[1] : (std::filesystem::temp_directory_path() / "imuforge-diag-bench.bin").string();
+  const std::string only = argc > 2 ? argv[2] : "";
+  if (!only.empty() && only != "plain" && only != "mounted" && only != "table") {
+    std::fprintf(stderr, "diagnosis_bench: unknown case '%s' (plain, mounted or table)\n", only.c_str());
+    return 2;
+  }
+  auto want = [&](const char* c) { return only.empty() || only == c; };
   const double fs_hz = 1000.0;
   // Repeat the rich campaign at several plateaus until it lasts an hour.
   const std::vector<double> plateaus = {25, 35, 15, 30, 20, 40, 10, 28, 33, 18, 38, 12, 26, 22, 36};
   json camp = rich_campaign(plateaus, fs_hz);
-  run_case("1 h at 1 kHz, gyro g-sensitivity", log, camp, base_sensor(true, {{"gyro.g_sensitivity", {{"xz", 2e-4}}}}));
+  if (want("plain")) run_case("1 h at 1 kHz, gyro g-sensitivity", log, camp, base_sensor(true, {{"gyro.g_sensitivity", {{"xz", 2e-4}}}}));
   // The costliest path: a gyro cross-coupling on a case mounted 0.1° off, which the diagnosis estimates and
   // re-runs at (docs/diagnosis.md, "Mount rotation"), each re-run a full pass over the log.
   camp["simulation"]["fixture_errors"] = {{"mount_error_deg", {0.0, 0.1, -0.06}}};
-  run_case("1 h at 1 kHz, gyro cross-coupling on a case mounted 0.1 deg off", log + ".mount.bin", camp,
+  if (want("mounted"))
+    run_case("1 h at 1 kHz, gyro cross-coupling on a case mounted 0.1 deg off", log + ".mount.bin", camp,
            base_sensor(true, {{"gyro.g_sensitivity", {{"xz", 2e-4}}}, {"gyro.cross_coupling", {{"xz", 3e-3}, {"zx", -3e-3}}}}));
   // The table's axis tilted and its encoders' zeros offset (0.01–0.02°), diagnosed with the table known: the errors
   // are estimated in every run and the diagnosis re-runs on the re-evaluated reference (docs/diagnosis.md,
@@ -70,7 +78,8 @@ int main(int argc, char** argv) {
   camp["simulation"]["fixture_errors"] = {{"axes", {{{"tilt_a_deg", 0.02}, {"tilt_b_deg", -0.01}, {"zero_deg", 0.01}},
                                                     {{"tilt_a_deg", -0.01}, {"tilt_b_deg", 0.015}, {"zero_deg", -0.02}},
                                                     {{"tilt_a_deg", 0.01}, {"tilt_b_deg", 0.02}, {"zero_deg", 0.01}}}}};
-  run_case("1 h at 1 kHz, gyro g-sensitivity, the table's axis errors estimated (--campaign)", log + ".table.bin", camp,
+  if (want("table"))
+    run_case("1 h at 1 kHz, gyro g-sensitivity, the table's axis errors estimated (--campaign)", log + ".table.bin", camp,
            base_sensor(true, {{"gyro.g_sensitivity", {{"xz", 2e-4}}}}), true);
   return 0;
 }
