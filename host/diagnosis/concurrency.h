@@ -5,15 +5,17 @@
 // same order as when run alone, so the answer does not depend on which piece runs where, or on whether they run
 // at once at all (tests/diagnosis/concurrency_test.cpp: the pieces and a whole diagnosis, bit for bit).
 //
-// IMUFORGE_DIAG_THREADS=1 in the environment runs everything on the calling thread (profiling, comparisons).
+// IMUFORGE_DIAG_THREADS=1 in the environment runs everything on the calling thread (profiling, comparisons);
+// IMUFORGE_DIAG_THREADS=2 runs the pieces at once even on one core (the tests' threaded side); otherwise the core
+// count decides.
 #pragma once
 
 #include <functional>
 
 namespace imuforge::diagnosis {
 
-// False where the machine has one core, or IMUFORGE_DIAG_THREADS=1 asks for one thread. Read on every call (a
-// getenv, O(environment)), so a test can change it.
+// False where IMUFORGE_DIAG_THREADS=1 asks for one thread, true where it is 2, else whether the machine has two cores
+// or more. Read on every call (a getenv, O(environment)), so a test can change it.
 bool concurrency_allowed();
 
 // Runs a() and b() at once and returns when both have finished: b() on the caller's thread, a() on the process's

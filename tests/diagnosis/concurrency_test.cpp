@@ -30,7 +30,15 @@ using namespace imuforge::diagnosis;
 // IMUFORGE_DIAG_THREADS=1 for the scope of one object: the serial reference of each comparison.
 struct OneThread {
   OneThread() { setenv("IMUFORGE_DIAG_THREADS", "1", 1); }
-  ~OneThread() { unsetenv("IMUFORGE_DIAG_THREADS"); }
+  ~OneThread() { setenv("IMUFORGE_DIAG_THREADS", "2", 1); }
+};
+
+// Each test's threaded side runs threaded whatever the machine's cores (IMUFORGE_DIAG_THREADS=2), so a comparison is
+// never one thread against one thread; the other tests of the program keep the default.
+class DiagnosisConcurrency : public ::testing::Test {
+ protected:
+  void SetUp() override { setenv("IMUFORGE_DIAG_THREADS", "2", 1); }
+  void TearDown() override { unsetenv("IMUFORGE_DIAG_THREADS"); }
 };
 
 std::vector<imuforge::model::ParamId> deterministic_params(imuforge::model::Sensor s) {
@@ -69,8 +77,8 @@ class BreaksAfter : public SampleSource {
   std::size_t good_, i_ = 0;
 };
 
-TEST(DiagnosisConcurrency, ReadAheadGivesTheSamplesInOrderAndRewinds) {
-  ASSERT_TRUE(concurrency_allowed()) << "this machine runs the diagnosis on one thread: nothing concurrent to test";
+TEST_F(DiagnosisConcurrency, ReadAheadGivesTheSamplesInOrderAndRewinds) {
+  ASSERT_TRUE(concurrency_allowed());
   VectorSource inner(numbered(10007));
   PrefetchSource src(inner, 64);  // many batches, the last one short
   for (int pass = 0; pass < 3; ++pass) {
@@ -88,7 +96,7 @@ TEST(DiagnosisConcurrency, ReadAheadGivesTheSamplesInOrderAndRewinds) {
   src.idle();
 }
 
-TEST(DiagnosisConcurrency, ReadAheadRaisesTheInnerErrorWhereItHappened) {
+TEST_F(DiagnosisConcurrency, ReadAheadRaisesTheInnerErrorWhereItHappened) {
   BreaksAfter inner(numbered(5000), 3001);
   PrefetchSource src(inner, 100);
   Sample s;
@@ -105,7 +113,7 @@ TEST(DiagnosisConcurrency, ReadAheadRaisesTheInnerErrorWhereItHappened) {
   { PrefetchSource early(more, 16); ASSERT_TRUE(early.next(s)); }
 }
 
-TEST(DiagnosisConcurrency, RegressorSumsAreTheSerialSumsBitForBit) {
+TEST_F(DiagnosisConcurrency, RegressorSumsAreTheSerialSumsBitForBit) {
   using imuforge::model::MeasureInput;
   using imuforge::model::RegressorPlan;
   using imuforge::model::Sensor;
@@ -186,7 +194,7 @@ WanderCase wander_case(unsigned seed) {
   return c;
 }
 
-TEST(DiagnosisConcurrency, ConcurrentWanderSearchGivesTheSerialAnswer) {
+TEST_F(DiagnosisConcurrency, ConcurrentWanderSearchGivesTheSerialAnswer) {
   for (unsigned seed : {1u, 2u, 3u}) {
     const WanderCase c = wander_case(seed);
     std::array<WholeLogWander, 3> serial;
@@ -209,7 +217,7 @@ TEST(DiagnosisConcurrency, ConcurrentWanderSearchGivesTheSerialAnswer) {
   }
 }
 
-TEST(DiagnosisConcurrency, LineSpectrumFromCachedSumsIsTheFirstCallsToTheBit) {
+TEST_F(DiagnosisConcurrency, LineSpectrumFromCachedSumsIsTheFirstCallsToTheBit) {
   std::mt19937_64 rng(3);
   std::normal_distribution<double> g(0.0, 1.0);
   std::vector<double> t, t2;
@@ -240,7 +248,7 @@ TEST(DiagnosisConcurrency, LineSpectrumFromCachedSumsIsTheFirstCallsToTheBit) {
 // Every threaded path at once: the log read ahead and filtered, the regressors summed beside the pass, the
 // reference re-evaluated at the table's errors on its own thread, the wander searches and the motion-lag probe
 // split in two. The whole diagnosis.json must be the one-thread one.
-TEST(DiagnosisConcurrency, TheDiagnosisOfATableLogIsTheSameOnOneThreadAndOnSeveral) {
+TEST_F(DiagnosisConcurrency, TheDiagnosisOfATableLogIsTheSameOnOneThreadAndOnSeveral) {
   using diagtest::json;
   json camp = diagtest::rich_campaign({25.0, 35.0}, 50.0);
   camp["simulation"]["fixture_errors"] = {{"axes", {{{"tilt_a_deg", 0.02}, {"tilt_b_deg", -0.01}, {"zero_deg", 0.01}},
