@@ -10,7 +10,14 @@
 // count decides.
 #pragma once
 
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <exception>
 #include <functional>
+#include <mutex>
+#include <utility>
+#include <vector>
 
 namespace imuforge::diagnosis {
 
@@ -25,5 +32,99 @@ bool concurrency_allowed();
 // a() then b() on the caller's thread. An exception from either is rethrown once both have finished (a's first).
 // a and b must not write anything the other reads. Cost: a hand-over to the helper (µs).
 void run_concurrently(const std::function<void()>& a, const std::function<void()>& b);
+
+// Chunks of T handed from one producer thread to one consumer thread, in order, at most `depth` waiting: the
+// hand-off behind PrefetchSource (the log read ahead) and RegressorSums (the regressors summed beside pass 1).
+// Chunks are vectors whose storage goes round: the consumer's spent chunk becomes the producer's next blank(), so
+// a steady stream allocates and constructs nothing after its first depth + 2 chunks.
+//
+// The producer ends the stream with close(), passing on the exception that ended it, if any: the consumer gets every
+// chunk pushed before, then the exception. Either side may stop() instead: a waiting or later push() or pop()
+// returns false at once (the other side's thread has failed or is no longer wanted). reset() makes a stopped or
+// closed queue new again, once neither side is using it. Every call locks one mutex; push() and pop() wait on it.
+template <class T>
+class ChunkQueue {
+ public:
+  explicit ChunkQueue(std::size_t depth) : depth_(depth < 1 ? 1 : depth) {}
+  ChunkQueue(const ChunkQueue&) = delete;
+  ChunkQueue& operator=(const ChunkQueue&) = delete;
+
+  // Producer: a spent chunk as the consumer left it (its old elements, to be overwritten or cleared: a chunk of
+  // samples refilled in place costs no construction), or an empty one where none is spare. O(1).
+  std::vector<T> blank() {
+    std::lock_guard<std::mutex> lk(mu_);
+    if (spare_.empty()) return {};
+    std::vector<T> c = std::move(spare_.back());
+    spare_.pop_back();
+    return c;
+  }
+  // Producer: queues c once fewer than depth chunks wait. False, c dropped, where the queue is stopped.
+  bool push(std::vector<T>&& c) {
+    {
+      std::unique_lock<std::mutex> lk(mu_);
+      cv_.wait(lk, [&] { return stopped_ || full_.size() < depth_; });
+      if (stopped_) return false;
+      full_.push_back(std::move(c));
+    }
+    cv_.notify_all();
+    return true;
+  }
+  // Producer: nothing more will be pushed; err (may be null) reaches the consumer after the last chunk.
+  void close(std::exception_ptr err = nullptr) {
+    {
+      std::lock_guard<std::mutex> lk(mu_);
+      closed_ = true;
+      error_ = std::move(err);
+    }
+    cv_.notify_all();
+  }
+  // Consumer: out's storage is kept for blank(), then out becomes the next chunk: true. At the end of a closed
+  // stream false, with err set to close()'s exception (once; null after); false too where the queue is stopped.
+  bool pop(std::vector<T>& out, std::exception_ptr& err) {
+    bool got = false;
+    {
+      std::unique_lock<std::mutex> lk(mu_);
+      if (out.capacity() > 0) spare_.push_back(std::move(out));
+      out = std::vector<T>();
+      cv_.wait(lk, [&] { return stopped_ || closed_ || !full_.empty(); });
+      if (!stopped_ && !full_.empty()) {
+        out = std::move(full_.front());
+        full_.pop_front();
+        got = true;
+      } else if (!stopped_) {
+        err = std::move(error_);
+        error_ = nullptr;
+      }
+    }
+    cv_.notify_all();
+    return got;
+  }
+  // Either side: the other's waiting and later push() and pop() return false.
+  void stop() {
+    {
+      std::lock_guard<std::mutex> lk(mu_);
+      stopped_ = true;
+    }
+    cv_.notify_all();
+  }
+  // Neither side using the queue: queued chunks become spare, and the queue is open again.
+  void reset() {
+    std::lock_guard<std::mutex> lk(mu_);
+    for (auto& c : full_) spare_.push_back(std::move(c));
+    full_.clear();
+    closed_ = stopped_ = false;
+    error_ = nullptr;
+  }
+
+ private:
+  const std::size_t depth_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  // Guarded by mu_.
+  std::deque<std::vector<T>> full_;
+  std::vector<std::vector<T>> spare_;
+  bool closed_ = false, stopped_ = false;
+  std::exception_ptr error_;
+};
 
 }  // namespace imuforge::diagnosis

@@ -622,7 +622,9 @@ double shape_ml(const StochasticModel& m, const WholeLogWander* w, const std::ve
 // −2 log L (ML: Σ log S + χ², not REML: see trend_bias in the header) of rows = aug's first c columns, and of
 // rows beside each of aug's remaining S shape columns in turn, under the model's own level (own, own_shape, coef:
 // each shape's coefficient there) and, when raise is not kNone, profiled over the raise's own level from 1/16 to
-// 2× the raise and the model's own (best, best_shape). The one profile trend_bias and input_bias ask.
+// 2× the raise and the model's own (best, best_shape). The one profile trend_bias and input_bias ask. The 41 levels
+// are independent fits: half of them run beside the rest and the model's own level (concurrency.h), and the minima
+// are taken in the levels' order afterwards, so the answer is the one-thread answer to the bit.
 // O(42 · n · (c + S)² + 42 · S · c³).
 struct ShapeProfile {
   double own = 0, best = 0;
@@ -634,21 +636,39 @@ ShapeProfile profile_shapes(const StochasticModel& m, const std::vector<double>&
   const int S = static_cast<int>(aug.cols()) - c;
   ShapeProfile out;
   out.coef.assign(static_cast<std::size_t>(S), 0.0);
-  out.own = shape_ml(m, nullptr, t_s, dur_s, aug, c, rw_prior_var, duration_s, seg_of, out.own_shape, &out.coef);
+  auto own = [&] { out.own = shape_ml(m, nullptr, t_s, dur_s, aug, c, rw_prior_var, duration_s, seg_of, out.own_shape, &out.coef); };
+  if (raise.kind == WholeLogWander::kNone) {
+    own();
+    out.best = out.own;
+    out.best_shape = out.own_shape;
+    return out;
+  }
+  // The raise's level times 2^(k/8), k = −32 … 8.
+  constexpr int kLo = -32, kLevels = 41;
+  std::vector<double> v(kLevels);
+  std::vector<std::vector<double>> v_shape(kLevels);
+  auto levels = [&](int i0, int i1) {
+    for (int i = i0; i < i1; ++i) {
+      WholeLogWander w = raise;
+      const double f = std::pow(2.0, (kLo + i) / 8.0);
+      if (w.kind == WholeLogWander::kRandomWalk) w.K *= f;
+      else w.bank_sigma *= f;
+      v[static_cast<std::size_t>(i)] =
+          shape_ml(m, &w, t_s, dur_s, aug, c, rw_prior_var, duration_s, seg_of, v_shape[static_cast<std::size_t>(i)], nullptr);
+    }
+  };
+  run_concurrently([&] { levels(0, kLevels / 2); }, [&] {
+    own();
+    levels(kLevels / 2, kLevels);
+  });
   out.best = out.own;
   out.best_shape = out.own_shape;
-  if (raise.kind == WholeLogWander::kNone) return out;
-  std::vector<double> v_shape;
-  for (int k = -32; k <= 8; ++k) {
-    WholeLogWander w = raise;
-    const double f = std::pow(2.0, k / 8.0);
-    if (w.kind == WholeLogWander::kRandomWalk) w.K *= f;
-    else w.bank_sigma *= f;
-    const double v = shape_ml(m, &w, t_s, dur_s, aug, c, rw_prior_var, duration_s, seg_of, v_shape, nullptr);
-    if (std::isfinite(v)) out.best = std::min(out.best, v);
+  for (int i = 0; i < kLevels; ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    if (std::isfinite(v[ui])) out.best = std::min(out.best, v[ui]);
     for (int s = 0; s < S; ++s)
-      if (std::isfinite(v_shape[static_cast<std::size_t>(s)]))
-        out.best_shape[static_cast<std::size_t>(s)] = std::min(out.best_shape[static_cast<std::size_t>(s)], v_shape[static_cast<std::size_t>(s)]);
+      if (std::isfinite(v_shape[ui][static_cast<std::size_t>(s)]))
+        out.best_shape[static_cast<std::size_t>(s)] = std::min(out.best_shape[static_cast<std::size_t>(s)], v_shape[ui][static_cast<std::size_t>(s)]);
   }
   return out;
 }

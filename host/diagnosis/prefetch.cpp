@@ -2,23 +2,20 @@
 
 #include <algorithm>
 #include <system_error>
+#include <utility>
 
 #include "host/diagnosis/concurrency.h"
 
 namespace imuforge::diagnosis {
 
 PrefetchSource::PrefetchSource(SampleSource& inner, std::size_t batch)
-    : inner_(inner), batch_(std::max<std::size_t>(batch, 1)), threaded_(concurrency_allowed()) {}
+    : inner_(inner), batch_(std::max<std::size_t>(batch, 1)), threaded_(concurrency_allowed()), queue_(kDepth) {}
 
 PrefetchSource::~PrefetchSource() { idle(); }
 
 void PrefetchSource::idle() {
   if (reader_.joinable()) {
-    {
-      std::lock_guard<std::mutex> lk(mu_);
-      stop_ = true;
-    }
-    cv_.notify_all();
+    queue_.stop();
     reader_.join();
   }
 }
@@ -26,10 +23,7 @@ void PrefetchSource::idle() {
 void PrefetchSource::rewind() {
   idle();
   inner_.rewind();
-  full_.clear();
-  full_head_ = 0;
-  done_ = stop_ = false;
-  error_ = nullptr;
+  queue_.reset();
   cur_.clear();
   pos_ = 0;
   started_ = finished_ = false;
@@ -37,16 +31,7 @@ void PrefetchSource::rewind() {
 
 void PrefetchSource::produce() {
   for (;;) {
-    std::vector<Sample> b;
-    {
-      std::unique_lock<std::mutex> lk(mu_);
-      cv_.wait(lk, [&] { return stop_ || full_.size() - full_head_ < kDepth; });
-      if (stop_) return;
-      if (!spare_.empty()) {
-        b = std::move(spare_.back());
-        spare_.pop_back();
-      }
-    }
+    std::vector<Sample> b = queue_.blank();
     b.resize(batch_);
     std::size_t n = 0;
     bool end = false;
@@ -63,16 +48,11 @@ void PrefetchSource::produce() {
       end = true;
     }
     b.resize(n);
-    {
-      std::lock_guard<std::mutex> lk(mu_);
-      if (n > 0) full_.push_back(std::move(b));
-      if (end) {
-        done_ = true;
-        error_ = err;
-      }
+    if (n > 0 && !queue_.push(std::move(b))) return;  // stopped
+    if (end) {
+      queue_.close(std::move(err));  // the reader keeps no reference: the exception is freed by the thread that catches it
+      return;
     }
-    cv_.notify_all();
-    if (end) return;
   }
 }
 
@@ -92,29 +72,13 @@ bool PrefetchSource::next(Sample& s) {
       return inner_.next(s);
     }
   }
+  pos_ = 0;
   std::exception_ptr err;
-  {
-    std::unique_lock<std::mutex> lk(mu_);
-    if (!cur_.empty()) spare_.push_back(std::move(cur_));
-    cur_.clear();
-    pos_ = 0;
-    cv_.wait(lk, [&] { return full_head_ < full_.size() || done_; });
-    if (full_head_ < full_.size()) {
-      cur_ = std::move(full_[full_head_++]);
-      // Drop the moved-from slots now and then (the vector only grows by kDepth between compactions).
-      if (full_head_ == full_.size()) {
-        full_.clear();
-        full_head_ = 0;
-      }
-    } else {
-      finished_ = true;
-      err = error_;
-      error_ = nullptr;
-    }
+  if (!queue_.pop(cur_, err)) {
+    finished_ = true;
+    if (err) std::rethrow_exception(err);
+    return false;
   }
-  cv_.notify_all();
-  if (err) std::rethrow_exception(err);
-  if (finished_) return false;
   s = cur_[pos_++];
   return true;
 }

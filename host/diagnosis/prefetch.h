@@ -1,13 +1,11 @@
 // A sample source read ahead on a thread of its own (the diagnosis's passes over a log).
 #pragma once
 
-#include <condition_variable>
 #include <cstddef>
-#include <exception>
-#include <mutex>
 #include <thread>
 #include <vector>
 
+#include "host/diagnosis/concurrency.h"
 #include "host/diagnosis/diagnose.h"
 
 namespace imuforge::diagnosis {
@@ -19,12 +17,13 @@ namespace imuforge::diagnosis {
 // Where concurrency.h allows no second thread, next() and rewind() pass straight through.
 //
 // The inner source must not be used by anyone else while this one is (its next() runs on the reading thread);
-// idle() stops that thread, after which the inner source may be asked for anything (a filter's summary). rewind()
+// idle() stops that thread, after which the inner source may be asked for anything (a filter's summary) and next()
+// returns false until rewind(). rewind()
 // stops it too and rewinds the inner source; reading starts again at the next next(). The inner source may have
 // read up to kDepth · batch samples further than the caller when the caller rewinds before the end (a filter that
 // restarts its search on such a rewind, glitches.h, then sees a later point; the diagnosis reads every pass to the
 // end).
-// Cost: O(1) per sample beyond the inner source's (one copy); memory kDepth + 1 batches (about 2 MB at the default).
+// Cost: O(1) per sample beyond the inner source's (one copy); memory kDepth + 2 batches (about 2.5 MB at the default).
 class PrefetchSource : public SampleSource {
  public:
   static constexpr std::size_t kDepth = 3;
@@ -43,13 +42,7 @@ class PrefetchSource : public SampleSource {
   const std::size_t batch_;
   bool threaded_;
   std::thread reader_;
-  std::mutex mu_;
-  std::condition_variable cv_;
-  // Guarded by mu_: full batches in order, spare ones, and how reading ended.
-  std::vector<std::vector<Sample>> full_, spare_;
-  std::size_t full_head_ = 0;
-  bool done_ = false, stop_ = false;
-  std::exception_ptr error_;
+  ChunkQueue<Sample> queue_;
   // The caller's side: the batch it reads from.
   std::vector<Sample> cur_;
   std::size_t pos_ = 0;

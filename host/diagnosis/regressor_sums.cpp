@@ -8,7 +8,7 @@
 namespace imuforge::diagnosis {
 
 RegressorSums::RegressorSums(const model::RegressorPlan& accel, const model::RegressorPlan& gyro, double T_ref_C)
-    : plan_{&accel, &gyro}, T_ref_C_(T_ref_C), threaded_(concurrency_allowed()) {
+    : plan_{&accel, &gyro}, T_ref_C_(T_ref_C), threaded_(concurrency_allowed()), queue_(kQueued) {
   if (!threaded_) return;
   filling_.reserve(kChunk);
   try {
@@ -20,11 +20,7 @@ RegressorSums::RegressorSums(const model::RegressorPlan& accel, const model::Reg
 
 RegressorSums::~RegressorSums() {
   if (worker_.joinable()) {
-    {
-      std::lock_guard<std::mutex> lk(mu_);
-      stop_ = true;
-    }
-    cv_.notify_all();
+    queue_.stop();
     worker_.join();
   }
 }
@@ -48,64 +44,32 @@ void RegressorSums::add(int block, const model::MeasureInput ins[2]) {
 
 void RegressorSums::submit() {
   if (filling_.empty()) return;
-  std::vector<Entry> next;
-  {
-    std::unique_lock<std::mutex> lk(mu_);
-    cv_.wait(lk, [&] { return queued_.size() < kQueued || error_; });
-    queued_.push_back(std::move(filling_));
-    if (!spare_.empty()) {
-      next = std::move(spare_.back());
-      spare_.pop_back();
-    }
-  }
-  cv_.notify_all();
-  next.clear();
-  next.reserve(kChunk);
-  filling_ = std::move(next);
+  queue_.push(std::move(filling_));  // false: the worker has failed, and take() says why
+  filling_ = queue_.blank();
+  filling_.clear();
+  filling_.reserve(kChunk);
 }
 
 void RegressorSums::work() {
-  for (;;) {
-    std::vector<Entry> chunk;
-    {
-      std::unique_lock<std::mutex> lk(mu_);
-      cv_.wait(lk, [&] { return stop_ || !queued_.empty(); });
-      if (stop_) return;
-      chunk = std::move(queued_.front());
-      queued_.pop_front();
-      busy_ = true;
-    }
-    std::exception_ptr err;
+  std::vector<Entry> chunk;
+  std::exception_ptr closed;
+  while (queue_.pop(chunk, closed)) {
     try {
       for (const Entry& e : chunk) add_now(e);
     } catch (...) {
-      err = std::current_exception();
+      error_ = std::current_exception();
+      queue_.stop();  // the caller's push() no longer waits for room
+      return;
     }
-    {
-      std::lock_guard<std::mutex> lk(mu_);
-      busy_ = false;
-      chunk.clear();
-      spare_.push_back(std::move(chunk));
-      if (err && !error_) error_ = err;
-    }
-    cv_.notify_all();
-    if (err) return;
   }
 }
 
 std::vector<std::array<Eigen::MatrixXd, 2>> RegressorSums::take() {
   if (threaded_) {
     submit();
-    std::exception_ptr err;
-    {
-      std::unique_lock<std::mutex> lk(mu_);
-      cv_.wait(lk, [&] { return (queued_.empty() && !busy_) || error_; });
-      err = error_;
-      stop_ = true;
-    }
-    cv_.notify_all();
-    worker_.join();
-    if (err) std::rethrow_exception(err);
+    queue_.close();
+    worker_.join();  // the worker has added every queued chunk, or failed
+    if (error_) std::rethrow_exception(error_);
   }
   return std::move(sums_);
 }

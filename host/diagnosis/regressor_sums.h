@@ -3,14 +3,12 @@
 
 #include <Eigen/Dense>
 #include <array>
-#include <condition_variable>
 #include <cstddef>
-#include <deque>
 #include <exception>
-#include <mutex>
 #include <thread>
 #include <vector>
 
+#include "host/diagnosis/concurrency.h"
 #include "host/model/measure.h"
 
 namespace imuforge::diagnosis {
@@ -53,13 +51,8 @@ class RegressorSums {
   std::vector<std::array<Eigen::MatrixXd, 2>> sums_;  // the worker's while it runs
   bool threaded_;
   std::thread worker_;
-  std::mutex mu_;
-  std::condition_variable cv_;
-  // Guarded by mu_.
-  std::deque<std::vector<Entry>> queued_;
-  std::vector<std::vector<Entry>> spare_;
-  bool busy_ = false, stop_ = false;
-  std::exception_ptr error_;
+  ChunkQueue<Entry> queue_;
+  std::exception_ptr error_;  // the worker's; read after it has been joined
   // The caller's chunk being filled.
   std::vector<Entry> filling_;
 };

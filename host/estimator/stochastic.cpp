@@ -96,11 +96,17 @@ void whiten_segment(const StochasticModel& m, const std::vector<double>& t_s, co
         if (seg_bias) phi[Qs] = 1.0;
         dt_last = dt;
       }
-      // M ← diag(φ) M and P ← diag(φ) P diag(φ), in place.
-      for (int col = 0; col < c; ++col)
-        for (int r = 0; r < NS; ++r) M(r, col) = phi[r] * M(r, col);
-      for (int col = 0; col < NS; ++col)
-        for (int r = 0; r < NS; ++r) P(r, col) = phi[r] * P(r, col) * phi[col];
+      // M ← diag(φ) M and P ← diag(φ) P diag(φ), in place. φ is 1 on the walk and the segment bias (rows G and
+      // up), and x·1 is x to the bit, so only the GM rows and columns are multiplied: with no GM state (the
+      // white-and-walk models the wander search tries) the transition costs nothing.
+      if (G > 0) {
+        for (int col = 0; col < c; ++col)
+          for (int r = 0; r < G; ++r) M(r, col) = phi[r] * M(r, col);
+        for (int col = 0; col < G; ++col)
+          for (int r = 0; r < NS; ++r) P(r, col) = (r < G ? phi[r] * P(r, col) : P(r, col)) * phi[col];
+        for (int col = G; col < NS; ++col)
+          for (int r = 0; r < G; ++r) P(r, col) = phi[r] * P(r, col);
+      }
       for (int g = 0; g < G; ++g) P(g, g) += gm[static_cast<std::size_t>(g)].first * (1.0 - phi[g] * phi[g]);
       // The random-walk state is the bias at the END of the last block (below): it walks over the gap only.
       const double gap = std::max((t_s[static_cast<std::size_t>(i)] - 0.5 * dur_s[static_cast<std::size_t>(i)]) -

@@ -1,7 +1,7 @@
 // The diagnosis's concurrent pieces (host/diagnosis/concurrency.h) give the single-threaded answer to the last bit:
-// the read-ahead source, the regressors' block sums, the whole-log wander search, the line spectrum's cached sums,
-// and a whole diagnosis of a rate-table log with the table known (every threaded path at once). Run under
-// ThreadSanitizer too (preset host-tsan).
+// the chunk hand-off under them, the read-ahead source, the regressors' block sums, the whole-log wander search, the
+// shape profiles, the line spectrum's cached sums, and a whole diagnosis of a rate-table log with the table known
+// (every threaded path at once). Run under ThreadSanitizer too (preset host-tsan).
 #include <gtest/gtest.h>
 
 #include <array>
@@ -76,6 +76,45 @@ class BreaksAfter : public SampleSource {
   std::vector<Sample> v_;
   std::size_t good_, i_ = 0;
 };
+
+TEST_F(DiagnosisConcurrency, ChunkQueueHandsOverInOrderThenTheErrorAndStops) {
+  ChunkQueue<int> q(2);
+  std::thread producer([&] {
+    for (int k = 0; k < 50; ++k) {
+      std::vector<int> c = q.blank();
+      c.clear();  // a spent chunk comes back as the consumer left it
+      for (int i = 0; i <= k % 7; ++i) c.push_back(k * 100 + i);
+      ASSERT_TRUE(q.push(std::move(c)));
+    }
+    q.close(std::make_exception_ptr(std::runtime_error("end of log")));
+  });
+  std::vector<int> chunk;
+  std::exception_ptr err;
+  int k = 0;
+  while (q.pop(chunk, err)) {
+    ASSERT_EQ(chunk.size(), static_cast<std::size_t>(k % 7 + 1)) << "chunk " << k;
+    for (std::size_t i = 0; i < chunk.size(); ++i) ASSERT_EQ(chunk[i], k * 100 + static_cast<int>(i));
+    ++k;
+  }
+  producer.join();
+  EXPECT_EQ(k, 50);  // every chunk before the error
+  ASSERT_TRUE(err);
+  EXPECT_THROW(std::rethrow_exception(err), std::runtime_error);
+  std::exception_ptr again;
+  EXPECT_FALSE(q.pop(chunk, again));  // the error is passed on once
+  EXPECT_FALSE(again);
+
+  // A producer waiting for room is released by the consumer's stop(), and its push() says so.
+  q.reset();
+  ASSERT_TRUE(q.push(std::vector<int>{1}));
+  ASSERT_TRUE(q.push(std::vector<int>{2}));
+  bool pushed = true;
+  std::thread blocked([&] { pushed = q.push(std::vector<int>{3}); });
+  q.stop();
+  blocked.join();
+  EXPECT_FALSE(pushed);
+  EXPECT_FALSE(q.pop(chunk, err));
+}
 
 TEST_F(DiagnosisConcurrency, ReadAheadGivesTheSamplesInOrderAndRewinds) {
   ASSERT_TRUE(concurrency_allowed());
@@ -214,6 +253,44 @@ TEST_F(DiagnosisConcurrency, ConcurrentWanderSearchGivesTheSerialAnswer) {
         EXPECT_TRUE(same_bits(x, y)) << seed << " line " << l << ": " << x << " vs " << y;
     }
     EXPECT_TRUE(any) << "the case raises no line: the comparison would be empty";
+  }
+}
+
+// The shape profiles (trend_bias, input_bias, input_group_bias) fit the raise's 41 levels in two halves at once.
+TEST_F(DiagnosisConcurrency, ShapeProfilesOverTheRaisesLevelsGiveTheSerialAnswer) {
+  for (unsigned seed : {1u, 2u}) {
+    const WanderCase c = wander_case(seed);
+    for (const auto kind : {WholeLogWander::kRandomWalk, WholeLogWander::kFlicker}) {
+      WholeLogWander raise;
+      raise.kind = kind;
+      raise.K = 3e-6;
+      raise.bank_sigma = 6e-5;
+      Eigen::MatrixXd fn(c.rows.rows(), 3);  // functions of the "inputs" for input_bias: x, x², a slow sine
+      for (Eigen::Index i = 0; i < fn.rows(); ++i) {
+        const double x = c.rows(i, 1);
+        fn(i, 0) = x;
+        fn(i, 1) = x * x;
+        fn(i, 2) = std::sin(2.0 * M_PI * c.t[static_cast<std::size_t>(i)] / 400.0);
+      }
+      TrendBias tb1;
+      InputBias ib1, gb1;
+      {
+        OneThread one;
+        tb1 = trend_bias(c.m, c.t, c.dur, c.rows, 0.0, c.t.back(), raise);
+        ib1 = input_bias(c.m, c.t, c.dur, c.rows, 0.0, c.t.back(), raise, fn);
+        gb1 = input_group_bias(c.m, c.t, c.dur, c.rows, 0.0, c.t.back(), raise, fn);
+      }
+      const TrendBias tb2 = trend_bias(c.m, c.t, c.dur, c.rows, 0.0, c.t.back(), raise);
+      const InputBias ib2 = input_bias(c.m, c.t, c.dur, c.rows, 0.0, c.t.back(), raise, fn);
+      const InputBias gb2 = input_group_bias(c.m, c.t, c.dur, c.rows, 0.0, c.t.back(), raise, fn);
+      for (auto [x, y] : {std::pair{tb1.gain, tb2.gain}, {tb1.line_gain, tb2.line_gain}, {tb1.slope_per_s, tb2.slope_per_s},
+                          {tb1.settle_gain, tb2.settle_gain}, {tb1.settle_tau_s, tb2.settle_tau_s},
+                          {tb1.settle_amplitude, tb2.settle_amplitude}, {ib1.gain, ib2.gain}, {ib1.own_gain, ib2.own_gain},
+                          {gb1.gain, gb2.gain}, {gb1.own_gain, gb2.own_gain}})
+        EXPECT_TRUE(same_bits(x, y)) << seed << " kind " << kind << ": " << x << " vs " << y;
+      EXPECT_EQ(ib1.best, ib2.best);
+      EXPECT_GT(tb1.gain + ib1.gain, 0.0) << "nothing to find: the comparison would be of zeros";
+    }
   }
 }
 

@@ -1,11 +1,13 @@
 // The estimator core shared by the solver and the diagnosis (host/estimator).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 #include <type_traits>
 
 #include "host/estimator/estimator.h"
 #include "host/estimator/kfold.h"
+#include "host/estimator/stochastic.h"
 #include "host/solver/estimate.h"
 
 // A folder's tests build one unity program (tests/CMakeLists.txt): this file's names stay its own.
@@ -219,6 +221,89 @@ TEST(EstimatorCore, PredictiveHeldOutChiSquareStaysAtOneWhereAFoldIsExtrapolated
   // as misfit: about 1.3 over the five folds.
   EXPECT_GT(raw, 1.2);
 }
+// The GLS whitening (stochastic.h) against the likelihood written out in full: the dense covariance of the block
+// means that the noise model defines, built term by term, not by a filter. Σ ν²/S + Σ log S must be zᵀΣ⁻¹z +
+// log det Σ, and the whitened regressors' normal equations XᵀΣ⁻¹X and XᵀΣ⁻¹z, on irregular blocks (gaps, unequal
+// durations, runs of segments), with and without Gauss-Markov states (the filter skips the transition of the
+// states that do not decay).
+TEST(EstimatorStochastic, WhiteningGivesTheDenseCovariancesLikelihood) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> n01;
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const int n = 48, P = 3;
+  std::vector<double> t(n), d(n);
+  std::vector<int> seg(n);
+  double start = 0.0;
+  int id = 0;
+  for (int i = 0; i < n; ++i) {
+    d[static_cast<std::size_t>(i)] = 2.0 + 28.0 * u01(rng);
+    t[static_cast<std::size_t>(i)] = start + 0.5 * d[static_cast<std::size_t>(i)];
+    start += d[static_cast<std::size_t>(i)] + (i % 5 == 4 ? 60.0 * u01(rng) : 0.0);  // gaps between some blocks
+    if (i > 0 && u01(rng) < 0.3) ++id;
+    seg[static_cast<std::size_t>(i)] = id;
+  }
+  Eigen::MatrixXd rows(n, 1 + P);
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < 1 + P; ++c) rows(i, c) = n01(rng);
+
+  for (int with_gm = 0; with_gm < 2; ++with_gm) {
+    StochasticModel m;
+    m.N = 0.02;
+    m.Q = 0.001;
+    m.K = 3e-3;
+    m.seg_bias_var = 4e-4;
+    if (with_gm) {
+      m.gm_sigma = 0.05;
+      m.gm_tau_s = 40.0;
+      m.bank_sigma = 0.01;
+      m.bank_sigma_lik = 0.02;  // the likelihood's level, above the point estimate
+      m.bank_tau_s = {5.0, 20.0, 80.0, 320.0};
+    }
+    const double rw0 = 2e-3;
+    // The dense covariance of the block means.
+    Eigen::MatrixXd Sig = Eigen::MatrixXd::Zero(n, n);
+    for (int i = 0; i < n; ++i) Sig(i, i) += m.white_var(d[static_cast<std::size_t>(i)]);
+    for (const auto& st : m.gm_states()) {  // σ², T: the mid-block states, each mean α·g plus a part of its own
+      std::vector<double> alpha(n), vm(n);
+      for (int i = 0; i < n; ++i) gm_block(d[static_cast<std::size_t>(i)], st.second, alpha[static_cast<std::size_t>(i)], vm[static_cast<std::size_t>(i)]);
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+          const auto ui = static_cast<std::size_t>(i), uj = static_cast<std::size_t>(j);
+          Sig(i, j) += i == j ? st.first * std::max(vm[ui], alpha[ui] * alpha[ui])
+                              : st.first * alpha[ui] * alpha[uj] * std::exp(-std::fabs(t[ui] - t[uj]) / st.second);
+        }
+    }
+    // The random walk W: Var W(start of block i) = rw0 + K²·(time since the first block's start); a block's mean is
+    // W(start) + u/2 + e (u its increment over the block, Var e = K² d / 12), so Var = V + q/3, and the mean's
+    // covariance with any later block is V + q/2.
+    const double s0 = t[0] - 0.5 * d[0];
+    for (int i = 0; i < n; ++i)
+      for (int j = i; j < n; ++j) {
+        const auto ui = static_cast<std::size_t>(i);
+        const double V = rw0 + m.K * m.K * (t[ui] - 0.5 * d[ui] - s0), q = m.K * m.K * d[ui];
+        const double c = j == i ? V + q / 3.0 : V + q / 2.0;
+        Sig(i, j) += c;
+        if (j != i) Sig(j, i) += c;
+      }
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        if (seg[static_cast<std::size_t>(i)] == seg[static_cast<std::size_t>(j)]) Sig(i, j) += m.seg_bias_var;
+
+    Eigen::MatrixXd innov(n, 1 + P);
+    Eigen::VectorXd S(n);
+    whiten_segment(m, t, d, rows, rw0, innov, S, nullptr, &seg);
+    Eigen::MatrixXd Wt(n, 1 + P);  // whitened columns
+    for (int i = 0; i < n; ++i) Wt.row(i) = innov.row(i) / std::sqrt(S[i]);
+    const Eigen::LLT<Eigen::MatrixXd> llt(Sig);
+    ASSERT_EQ(llt.info(), Eigen::Success);
+    const Eigen::MatrixXd G_dense = rows.transpose() * llt.solve(rows);  // [z X]ᵀ Σ⁻¹ [z X]
+    const Eigen::MatrixXd G_filter = Wt.transpose() * Wt;
+    EXPECT_LT((G_filter - G_dense).norm(), 1e-9 * G_dense.norm()) << "with_gm " << with_gm << "\n" << G_filter << "\n" << G_dense;
+    const double logdet_dense = 2.0 * Eigen::MatrixXd(llt.matrixL()).diagonal().array().log().sum();
+    EXPECT_NEAR(S.array().log().sum(), logdet_dense, 1e-9 * std::fabs(logdet_dense)) << "with_gm " << with_gm;
+  }
+}
+
 }  // namespace estimator_core_test
 
 // Units in time order: neighbours in different folds, sizes balanced, and a repeated sequence whose length is a
@@ -245,4 +330,5 @@ TEST(EstimatorCore, InterleavedFoldsSpreadARepeatedSchedule) {
       EXPECT_GE(folds_hit, std::min(K, n / period) - 1) << "period " << period << " position " << pos;
     }
   }
+
 }
