@@ -11,6 +11,7 @@
 #include "host/diagnosis/diagnose.h"
 #include "host/diagnosis/dropouts.h"
 #include "host/diagnosis/glitches.h"
+#include "host/diagnosis/concurrency.h"
 #include "host/diagnosis/prefetch.h"
 #include "host/diagnosis/regressor_sums.h"
 #include "host/diagnosis/output_bits.h"
@@ -3977,6 +3978,35 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   // Within the held-out threshold, but what is left is neither a catalog effect nor stationary wander
   // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a random
   // walk, and the floor it raised hides the residual from the held-out χ².
+  // The `follows` check's functions, built once (the same for every axis); before two axes are assessed at once.
+  auto build_follows = [&] {
+    std::vector<double> pv_sig(static_cast<std::size_t>(B), 1.0);
+    std::vector<SignatureFunction> feats = signature_functions(blocks, pv_sig);
+    feats.erase(std::remove_if(feats.begin(), feats.end(), [](const SignatureFunction& f) { return f.first == "time"; }),
+                feats.end());
+    n_single = static_cast<int>(feats.size());
+    for (int k = 0; k < n_single; ++k)
+      if (is_temp_hat(feats[static_cast<std::size_t>(k)].first)) temp_hats.push_back(k);
+    follows_F.resize(B, static_cast<Eigen::Index>(n_single + kNumAxes * static_cast<int>(temp_hats.size())));
+    for (int k = 0; k < n_single; ++k) {
+      follows_names.push_back(feats[static_cast<std::size_t>(k)].first);
+      for (int b = 0; b < B; ++b) {
+        const double v = feats[static_cast<std::size_t>(k)].second(blocks[static_cast<std::size_t>(b)]);
+        follows_F(b, k) = std::isfinite(v) ? v : 0.0;
+      }
+    }
+    for (int ax_i = 0; ax_i < kNumAxes; ++ax_i)
+      for (int h : temp_hats) {
+        const int k = static_cast<int>(follows_names.size());
+        const int j = ax_i % 3;
+        follows_names.push_back(std::string(ax_i < 3 ? "f_" : "w_") + "xyz"[j] + " * " + follows_names[static_cast<std::size_t>(h)]);
+        for (int b = 0; b < B; ++b) {
+          const Block& x = blocks[static_cast<std::size_t>(b)];
+          follows_F(b, k) = (ax_i < 3 ? x.f[j] : x.w[j]) * follows_F(b, h);
+        }
+        scale_hats[static_cast<std::size_t>(ax_i)].push_back(k);
+      }
+  };
   auto is_structured = [](const DiagnosisResult::Wander& w) {
     return w.beyond_reason == "jump" || w.beyond_reason == "periodic" || w.beyond_reason == "sinusoid" ||
            w.beyond_reason == "modulated" || w.beyond_reason == "drift" || w.beyond_reason == "settling" ||
@@ -4083,34 +4113,7 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       // Does the residual the raise takes follow a logged input (noise_model.h, input_bias)? The signature
       // library's functions, time left to the drift check above; the bar carries the look-elsewhere count.
       if (w.beyond_reason.empty() && o.wander_follows_chi2 > 0) {
-        if (follows_names.empty()) {  // the same for every axis: built once
-          std::vector<double> pv_sig(static_cast<std::size_t>(B), 1.0);
-          std::vector<SignatureFunction> feats = signature_functions(blocks, pv_sig);
-          feats.erase(std::remove_if(feats.begin(), feats.end(), [](const SignatureFunction& f) { return f.first == "time"; }),
-                      feats.end());
-          n_single = static_cast<int>(feats.size());
-          for (int k = 0; k < n_single; ++k)
-            if (is_temp_hat(feats[static_cast<std::size_t>(k)].first)) temp_hats.push_back(k);
-          follows_F.resize(B, static_cast<Eigen::Index>(n_single + kNumAxes * static_cast<int>(temp_hats.size())));
-          for (int k = 0; k < n_single; ++k) {
-            follows_names.push_back(feats[static_cast<std::size_t>(k)].first);
-            for (int b = 0; b < B; ++b) {
-              const double v = feats[static_cast<std::size_t>(k)].second(blocks[static_cast<std::size_t>(b)]);
-              follows_F(b, k) = std::isfinite(v) ? v : 0.0;
-            }
-          }
-          for (int ax_i = 0; ax_i < kNumAxes; ++ax_i)
-            for (int h : temp_hats) {
-              const int k = static_cast<int>(follows_names.size());
-              const int j = ax_i % 3;
-              follows_names.push_back(std::string(ax_i < 3 ? "f_" : "w_") + "xyz"[j] + " * " + follows_names[static_cast<std::size_t>(h)]);
-              for (int b = 0; b < B; ++b) {
-                const Block& x = blocks[static_cast<std::size_t>(b)];
-                follows_F(b, k) = (ax_i < 3 ? x.f[j] : x.w[j]) * follows_F(b, h);
-              }
-              scale_hats[static_cast<std::size_t>(ax_i)].push_back(k);
-            }
-        }
+        if (follows_names.empty()) build_follows();  // the same for every axis: built once
         w.follows = input_bias(R.stoch[ua], blk_t, blk_dur, rows, R.rw_prior_var[ua], R.duration_s, *pick,
                                follows_F.leftCols(n_single), &blk_seg);
         if (w.follows.best >= 0) w.follows_input = follows_names[static_cast<std::size_t>(w.follows.best)];
@@ -4544,6 +4547,31 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   }
 
   // ---- Whole-log wander of the final model (diagnose() decides whether to carry it).
+  // Two axes' questions at once (concurrency.h): each reads only what no one writes while they run (the blocks, the
+  // axis's own data, the model's columns, the `follows` functions built first). Not under IMUFORGE_DIAG_TRACE, whose
+  // lines would interleave.
+  if (o.whole_log_wander && concurrency_allowed() && !std::getenv("IMUFORGE_DIAG_TRACE")) {
+    std::vector<int> todo;
+    std::array<std::vector<int>, kNumAxes> todo_cols;
+    for (int a = 0; a < kNumAxes; ++a) {
+      const auto ua = static_cast<std::size_t>(a);
+      if (R.wander[ua].adopted) continue;
+      todo_cols[ua] = cols_for(ax[ua], cur);
+      if (!wander_asked_cols[ua] || *wander_asked_cols[ua] != todo_cols[ua]) todo.push_back(a);
+    }
+    if (todo.size() >= 2) {
+      if (o.wander_follows_chi2 > 0 && follows_names.empty()) build_follows();
+      std::array<std::optional<DiagnosisResult::Wander>, kNumAxes> got;
+      for (std::size_t i = 0; i + 1 < todo.size(); i += 2) {
+        const auto a0 = static_cast<std::size_t>(todo[i]), a1 = static_cast<std::size_t>(todo[i + 1]);
+        run_concurrently([&] { got[a1] = assess_wander(static_cast<int>(a1)); }, [&] { got[a0] = assess_wander(static_cast<int>(a0)); });
+        wander_asked[a0] = std::move(got[a0]);
+        wander_asked_cols[a0] = todo_cols[a0];
+        wander_asked[a1] = std::move(got[a1]);
+        wander_asked_cols[a1] = todo_cols[a1];
+      }
+    }
+  }
   if (o.whole_log_wander)
     for (int a = 0; a < kNumAxes; ++a) {
       const auto ua = static_cast<std::size_t>(a);
