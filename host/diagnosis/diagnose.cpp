@@ -3975,9 +3975,6 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
   // (f_j for accel axis j, ω_j for gyro) times each hat, the columns of a scale factor's curve in T.
   int n_single = 0;
   std::array<std::vector<int>, kNumAxes> scale_hats;
-  // Within the held-out threshold, but what is left is neither a catalog effect nor stationary wander
-  // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a random
-  // walk, and the floor it raised hides the residual from the held-out χ².
   // The `follows` check's functions, built once (the same for every axis); before two axes are assessed at once.
   auto build_follows = [&] {
     std::vector<double> pv_sig(static_cast<std::size_t>(B), 1.0);
@@ -4007,6 +4004,9 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
         scale_hats[static_cast<std::size_t>(ax_i)].push_back(k);
       }
   };
+  // Within the held-out threshold, but what is left is neither a catalog effect nor stationary wander
+  // (Options::wander_unexplained_*): the static dwells already took a slow periodic bias or a step for a random
+  // walk, and the floor it raised hides the residual from the held-out χ².
   auto is_structured = [](const DiagnosisResult::Wander& w) {
     return w.beyond_reason == "jump" || w.beyond_reason == "periodic" || w.beyond_reason == "sinusoid" ||
            w.beyond_reason == "modulated" || w.beyond_reason == "drift" || w.beyond_reason == "settling" ||
