@@ -4561,13 +4561,12 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
     }
     if (todo.size() >= 2) {
       if (o.wander_follows_chi2 > 0 && follows_names.empty()) build_follows();
-      std::array<std::optional<DiagnosisResult::Wander>, kNumAxes> got;
+      // Each side writes its own axis's slot, so the two never write the same memory.
       for (std::size_t i = 0; i + 1 < todo.size(); i += 2) {
         const auto a0 = static_cast<std::size_t>(todo[i]), a1 = static_cast<std::size_t>(todo[i + 1]);
-        run_concurrently([&] { got[a1] = assess_wander(static_cast<int>(a1)); }, [&] { got[a0] = assess_wander(static_cast<int>(a0)); });
-        wander_asked[a0] = std::move(got[a0]);
+        run_concurrently([&] { wander_asked[a1] = assess_wander(static_cast<int>(a1)); },
+                         [&] { wander_asked[a0] = assess_wander(static_cast<int>(a0)); });
         wander_asked_cols[a0] = todo_cols[a0];
-        wander_asked[a1] = std::move(got[a1]);
         wander_asked_cols[a1] = todo_cols[a1];
       }
     }
