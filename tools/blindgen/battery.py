@@ -388,6 +388,14 @@ def suite(name):
         # the varied schedule at new seeds (55000+), whole catalog, added at stop 68 and run on the stop-67 binary
         # before any change
         return varied_fresh(55000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2, full_catalog=True)
+    if name == 'unseen17':
+        # out-of-catalog kinds written at stop 71 and first run on the stop-70 binary (a bias in the die-to-board
+        # temperature gradient, a k2 moving with the die temperature, a gyro bias in w_j w_k^2); seeds 56000+
+        return unseen_kinds(blindgen.OOC_KINDS_UNSEEN17, 56000)
+    if name == 'varied40':
+        # the varied schedule at new seeds (57000+), whole catalog, added at stop 71 and run on the stop-70 binary
+        # before any change
+        return varied_fresh(57000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2, full_catalog=True)
     if name == 'unseen4':
         # out-of-catalog kinds written at stop 54 and first run on the stop-53 binary (a bias even in the die's
         # temperature rate, an accel cross-axis square, an accel creep after each pose change); seeds 27000+
@@ -770,7 +778,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (a case folder is named after the case and reused while its content hash matches: suites sharing case names need folders of their own when run at once)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'varied23', 'varied24', 'varied25', 'varied26', 'varied27', 'unseen', 'unseen2', 'unseen3', 'unseen4', 'unseen5', 'unseen6', 'varied28', 'unseen7', 'varied29', 'varied30', 'unseen8', 'varied31', 'unseen9', 'varied32', 'unseen10', 'varied33', 'unseen11', 'varied34', 'unseen12', 'varied35', 'unseen13', 'varied36', 'unseen14', 'varied37', 'unseen15', 'varied38', 'unseen16', 'varied39'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'varied23', 'varied24', 'varied25', 'varied26', 'varied27', 'unseen', 'unseen2', 'unseen3', 'unseen4', 'unseen5', 'unseen6', 'varied28', 'unseen7', 'varied29', 'varied30', 'unseen8', 'varied31', 'unseen9', 'varied32', 'unseen10', 'varied33', 'unseen11', 'varied34', 'unseen12', 'varied35', 'unseen13', 'varied36', 'unseen14', 'varied37', 'unseen15', 'varied38', 'unseen16', 'varied39', 'unseen17', 'varied40'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')

@@ -706,6 +706,24 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
     if kind == 'temp_ripple':    # a quadrature leak whose demodulation phase turns with the die temperature: a bias
         return o['amplitude'] * np.sin(o['k_rad_per_C'] * (T - o['T0_C']) + o['phase_rad'])  # oscillating in T,
         # 0.5-1 period over the range (no polynomial in T of the catalog's degree follows it)
+    if kind == 'thermal_gradient':  # a bias in the gradient between the die and the board it sits on (the board's
+        a = 1.0 - math.exp(-1.0 / (o['fs_hz'] * o['tau_s']))  # copper lags the die by tau, and the difference bends the
+        lag = np.empty_like(T)   # package): T minus a first-order lag of T, scaled to amp at its largest over the run.
+        acc = T[0]               # Not the catalog's temp_rate (the rate itself: the two agree only while a ramp
+        for i in range(len(T)):  # has run much longer than tau) nor its temp_hysteresis (a level set by the last
+            acc += a * (T[i] - acc)  # turn, constant between turns)
+            lag[i] = acc
+        g = T - lag
+        m = np.max(np.abs(g))
+        return o['amplitude'] * g / m if m > 0 else np.zeros_like(t)
+    if kind == 'k2_temp':        # a second-order scale nonlinearity that moves with the die temperature (the
+        u = f_imu if o['sensor'] == 'accel' else w_imu  # suspension's stiffening varies with T): u_j^2 (T - T_mid);
+        return o['coefficient'] * (T - o['T_mid_C']) / o['half_span_C'] * u[:, j] ** 2  # the catalog's k2 is
+        # constant, its scale_temp linear in u
+    if kind == 'w_cross_cubic':  # a gyro bias in its own rate times another axis' rate squared (the drive mode's
+        k = AX.index(o['input_axis'])  # frequency pulled by the centrifugal load of a rotation about k): w_j w_k^2,
+        return o['coefficient'] * w_imu[:, j] * w_imu[:, k] ** 2  # zero on every single-axis rotation (the catalog's
+        # k3 is w_j^3, its cross-coupling w_j w_k)
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -1233,9 +1251,13 @@ OOC_KINDS_UNSEEN15 = ['dead_zone', 'beat_chirp', 'scale_warmup']
 # for that part, which is right: the catalog has it), a gyro reading the magnitude of the rate about another axis
 # (mount play), a bias oscillating in the die temperature (a quadrature leak with a temperature-dependent phase)
 OOC_KINDS_UNSEEN16 = ['mag_field', 'cross_abs_rate', 'temp_ripple']
+# written at stop 71 and first run on the stop-70 binary (suite 'unseen17'): a bias in the gradient between the die and
+# a board lagging it by minutes, a second-order scale nonlinearity moving with the die temperature, a gyro bias in its
+# own rate times another axis' rate squared (zero on every single-axis rotation)
+OOC_KINDS_UNSEEN17 = ['thermal_gradient', 'k2_temp', 'w_cross_cubic']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g',
-                 'range_switch', 'dead_zone', 'mag_field', 'cross_abs_rate')
+                 'range_switch', 'dead_zone', 'mag_field', 'cross_abs_rate', 'w_cross_cubic')
 OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple', 'knee', 'mount_flex')
 
 
@@ -1375,6 +1397,14 @@ def ooc_params(ooc_kind, amp, rng, scenario):
         lo, hi = min(scenario['plateaus_C']), max(scenario['plateaus_C'])
         return dict(amplitude=amp, T0_C=float(lo), k_rad_per_C=float(rng.uniform(3, 6)) / max(hi - lo, 1.0),
                     phase_rad=float(rng.uniform(0, 2 * np.pi)))
+    if ooc_kind == 'thermal_gradient':  # amp at the largest die-to-board difference over the run; the board lags 5-20 min
+        return dict(amplitude=amp, tau_s=float(rng.uniform(300, 1200)), fs_hz=float(scenario['sample_rate_hz']))
+    if ooc_kind == 'k2_temp':  # amp at the largest input (1 g, or the top rate) at an end of the plateaus' range
+        lo, hi = min(scenario['plateaus_C']), max(scenario['plateaus_C'])
+        return dict(coefficient=None, amplitude=amp, _top_rate=math.radians(max(scenario['rates_dps'])),
+                    T_mid_C=0.5 * (lo + hi), half_span_C=max(0.5 * (hi - lo), 1.0))
+    if ooc_kind == 'w_cross_cubic':  # amp on the body diagonal at the top rate (each component top / sqrt 3)
+        return dict(coefficient=amp / (math.radians(max(scenario['rates_dps'])) / math.sqrt(3.0)) ** 3, input_axis=None)
     if ooc_kind == 'mount_flex':  # amp at the top rate and 1 g along the input axis
         return dict(coefficient=amp / (9.80665 * math.radians(max(scenario['rates_dps'])) ** 2), input_axis=None)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
@@ -1405,6 +1435,11 @@ def ooc_fill_axis(o, rng):
         top = o.pop('_top_rate')
         o['per_unit'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top)
     if o['kind'] == 'cross_abs_rate':
+        o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
+    if o['kind'] == 'k2_temp':
+        top = o.pop('_top_rate')
+        o['coefficient'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top) ** 2
+    if o['kind'] == 'w_cross_cubic':
         o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
     if o['kind'] == 'mount_flex':
         o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
