@@ -4048,6 +4048,26 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
            w.beyond_reason == "modulated" || w.beyond_reason == "drift" || w.beyond_reason == "settling" ||
            w.beyond_reason == "input" || w.beyond_reason == "follows";
   };
+  // The period of the line an axis's residual is named for: the sinusoid that beat the raise ("sinusoid"), or the
+  // line in what the raise leaves ("periodic"; the line's own period where its sinusoid was not fitted, the raise
+  // being large enough to name the axis by itself). 0 for every other reason.
+  auto line_period_of = [](const DiagnosisResult::Wander& w) {
+    return w.beyond_reason == "sinusoid"   ? w.sinusoid.period_s
+           : w.beyond_reason == "periodic" ? (w.sinusoid.period_s > 0 ? w.sinusoid.period_s : w.measured.line_period_s)
+                                           : 0.0;
+  };
+  // The evidence of the shape a structured residual takes, by reason: the verdict names an axis within the
+  // threshold when this or the raise's own gain reaches wander_unexplained_gain (a warm-up the first temperature
+  // ramp mostly takes leaves a transient that a walk raised 4.6x gains only 15 for and the transient 41 beside it:
+  // `unseen` ooc-warmup-0 accel.x), and the stand-in check asks the effects on such an axis about that shape.
+  auto shape_gain_of = [](const DiagnosisResult::Wander& w) {
+    return w.beyond_reason == "drift"       ? w.trend.line_gain
+           : w.beyond_reason == "settling"  ? w.trend.settle_own_gain
+           : w.beyond_reason == "follows"   ? w.follows.own_gain
+           : w.beyond_reason == "modulated" ? w.modulated_own_gain
+           : w.beyond_reason == "periodic"  ? w.sinusoid.gain
+                                            : 0.0;
+  };
   auto assess_wander = [&](int a) -> std::optional<DiagnosisResult::Wander> {
     const auto ua = static_cast<std::size_t>(a);
     const std::array<WholeLogWander, 3> lines = wander_lines(a, cur, true);
@@ -4422,8 +4442,8 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           if (!touched || !o.whole_log_wander || R.wander[ua].adopted) continue;
           const std::optional<DiagnosisResult::Wander>& w = wander_now(a);
           if (!w || w->within_rounding) continue;
-          if (w->beyond_reason == "follows" && w->follows.best >= 0 &&
-              std::max(w->measured.gain, w->follows.own_gain) >= o.wander_unexplained_gain) {
+          const bool named = std::max(w->measured.gain, shape_gain_of(*w)) >= o.wander_unexplained_gain;
+          if (w->beyond_reason == "follows" && w->follows.best >= 0 && named) {
             const Eigen::VectorXd g = follows_F.col(w->follows.best);
             const double gmax = g.cwiseAbs().maxCoeff();
             if (!(gmax > 0)) continue;
@@ -4438,12 +4458,8 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
           // for its line at held-out chi2/dof 1.19, beside accel.temp_rate, which the sensor does not have: its z
           // component took the line's share that Ṫ follows (0.030 +/- 0.005), and accel.x and y read "explained by
           // temp_rate" with components of 1.3 and 0.9 sigma.
-          const double line_period_s = w->beyond_reason == "sinusoid" ? w->sinusoid.period_s
-                                       : w->beyond_reason == "periodic"
-                                           ? (w->sinusoid.period_s > 0 ? w->sinusoid.period_s : w->measured.line_period_s)
-                                           : 0.0;
-          const double line_gain = w->beyond_reason == "periodic" ? w->sinusoid.gain : 0.0;
-          if (line_period_s > 0 && std::max(w->measured.gain, line_gain) >= o.wander_unexplained_gain) {
+          const double line_period_s = line_period_of(*w);
+          if (line_period_s > 0 && named) {
             gcol[ka] = modulated_sinusoid(blk_t, blk_dur, line_period_s, 1);
             char nm[64];
             std::snprintf(nm, sizeof nm, "a sinusoid of period %.0f s", line_period_s);
@@ -4639,28 +4655,15 @@ DiagnosisResult diagnose_core(SampleSource& src_in, const BaseModel& base, const
       w = *asked;
       const bool structured = is_structured(w);
       // An axis already named on its held-out χ² whose residual is that sinusoid or transient: its signature gets it.
-      const double sig_period_s = w.beyond_reason == "sinusoid"    ? w.sinusoid.period_s
-                                  : w.beyond_reason == "modulated" ? w.sinusoid.mod_period_s
-                                  // the line's own period where its sinusoid was not asked (a raise large
-                                  // enough to name the axis by itself)
-                                  : w.beyond_reason == "periodic" ? (w.sinusoid.period_s > 0 ? w.sinusoid.period_s
-                                                                                             : w.measured.line_period_s)
-                                                                   : 0.0;
+      const double sig_period_s = w.beyond_reason == "modulated" ? w.sinusoid.mod_period_s : line_period_of(w);
       const double sig_tau_s = w.beyond_reason == "settling" ? w.trend.settle_tau_s : 0.0;
       if ((sig_period_s > 0 || sig_tau_s > 0) && over(R.gap_after, a))
         for (auto& u : R.unexplained)
           if (u.axis == axis_name(a)) u.signature = signature_of(a, sig_period_s, sig_tau_s);
-      // The whole log rejects the model's own level decisively: by the raise's gain, or by the drift's or
-      // settling's own (a warm-up the first temperature ramp mostly takes leaves a transient that a walk raised
-      // 4.6x gains only 15 for and the transient 41 beside it: `unseen` ooc-warmup-0 accel.x), or by the line's
-      // sinusoid where the dwells took a periodic bias for wander (assess_wander, reason "periodic").
-      const double shape_gain = w.beyond_reason == "drift"      ? w.trend.line_gain
-                                : w.beyond_reason == "settling" ? w.trend.settle_own_gain
-                                : w.beyond_reason == "follows"  ? w.follows.own_gain
-                                : w.beyond_reason == "modulated" ? w.modulated_own_gain
-                                : w.beyond_reason == "periodic" ? w.sinusoid.gain
-                                                                : 0.0;
-      if (structured && !w.within_rounding && std::max(w.measured.gain, shape_gain) >= o.wander_unexplained_gain &&
+      // The whole log rejects the model's own level decisively: by the raise's gain, or by its shape's own
+      // (shape_gain_of: the drift's, the settling's, the followed function's, the line's sinusoid where the dwells
+      // took a periodic bias for wander).
+      if (structured && !w.within_rounding && std::max(w.measured.gain, shape_gain_of(w)) >= o.wander_unexplained_gain &&
           !over(R.gap_after, a)) {
         Unexplained u;
         u.axis = axis_name(a);
