@@ -748,7 +748,12 @@ std::string frame(const Axes& ax, const std::string& xl, const std::string& yl) 
     const double fx = i / 4.0;
     double x = ax.logx ? std::pow(10, std::log10(ax.x0) + fx * (std::log10(ax.x1) - std::log10(ax.x0))) : ax.x0 + fx * (ax.x1 - ax.x0);
     double y = ax.logy ? std::pow(10, std::log10(ax.y0) + fx * (std::log10(ax.y1) - std::log10(ax.y0))) : ax.y0 + fx * (ax.y1 - ax.y0);
-    s << "<text x='" << ax.tx(x) - 15 << "' y='" << ax.H - ax.Bm + 14 << "'>" << fmt("%.3g", x) << "</text>";
+    // Centred under its tick, but the last one ends at the picture's edge: centred, a label like "1.23e+03" ran
+    // past the right margin and was cut.
+    if (i < 4)
+      s << "<text x='" << ax.tx(x) << "' y='" << ax.H - ax.Bm + 14 << "' text-anchor='middle'>" << fmt("%.3g", x) << "</text>";
+    else
+      s << "<text x='" << ax.W - 2 << "' y='" << ax.H - ax.Bm + 14 << "' text-anchor='end'>" << fmt("%.3g", x) << "</text>";
     s << "<text x='2' y='" << ax.ty(y) + 3 << "'>" << fmt("%.3g", y) << "</text>";
   }
   s << "<text x='" << ax.W / 2 << "' y='" << ax.H - 6 << "'>" << esc(xl) << "</text>";
