@@ -151,6 +151,11 @@ def suite(name):
         # held-out threshold, beside a false accel.temp_rate whose z component took the line's share that Tdot
         # follows. Passes with the stand-in check asking the line's sinusoid (the effect beside it: LR 0.0)
         cases.append(('ooc-periodic-57341', 'ooc', 57341, {'ooc': 'periodic', 'size': 'varied', 'log_format': 'bin'}))
+        # unseen18 ooc-temp_exp-1 (stop 72): a consumer accel.y bias doubling every 9.3 degC over 0-40 degC (blindgen
+        # SNR 28) that the whole log's walk took beside the model's quadratic in T; the hats of T read LR 49 on 10 dof
+        # (p 3.9e-7, bar 2.2e-9) and the axis went unnamed. Passes with (T - mean)^3 among the followed functions (LR
+        # 35.7 against a bar of 34.4: a thin margin, kept as it is, so that a change that costs it shows here)
+        cases.append(('ooc-temp_exp-58011', 'ooc', 58011, {'ooc': 'temp_exp', 'size': 'varied', 'log_format': 'bin'}))
         return cases
     if name == 'holdout':
         # cases no diagnosis change was tuned on (added at stop 24, after its changes were fixed): stochastic-only
@@ -405,6 +410,24 @@ def suite(name):
         # the varied schedule at new seeds (57000+), whole catalog, added at stop 71 and run on the stop-70 binary
         # before any change
         return varied_fresh(57000, per_class_null=2, per_class_stoch=2, n_random=30, ooc_each=2, full_catalog=True)
+    if name == 'unseen18':
+        # out-of-catalog kinds written at stop 72 and first run on the stop-71 binary (a gyro bias in the angular
+        # acceleration about another axis, a leakage bias doubling every 6-14 degC, an accel bias in the product of its
+        # cross axes' rates); seeds 58000+
+        return unseen_kinds(blindgen.OOC_KINDS_UNSEEN18, 58000)
+    if name in ('lossy18', 'lossless18'):
+        # the same logs with and without rows lost on the link (stop 72): losses of 1-300 rows (3 s), one every 2 min
+        # on average. Nothing the sensor did changes, so a diagnosis should say the same on both
+        loss = {'row_loss': {'interval_s': 120.0, 'max_rows': 300}} if name == 'lossy18' else {}
+        for i, cls in enumerate(blindgen.CLASSES):
+            cases.append(('null-%s' % cls, 'null', 59000 + i, dict({'cls': cls, 'size': 'varied'}, **loss)))
+        for i in range(2):
+            cases.append(('stoch-%d' % i, 'stochastic', 59100 + i, dict({'size': 'varied'}, **loss)))
+        for i in range(8):
+            cases.append(('random-%d' % i, 'random', 59200 + i, dict({'size': 'varied', 'full_catalog': True}, **loss)))
+        for k, kind in enumerate(('heading', 'periodic', 'g_cubed')):
+            cases.append(('ooc-%s' % kind, 'ooc', 59300 + k, dict({'ooc': kind, 'size': 'varied'}, **loss)))
+        return cases
     if name == 'unseen4':
         # out-of-catalog kinds written at stop 54 and first run on the stop-53 binary (a bias even in the die's
         # temperature rate, an accel cross-axis square, an accel creep after each pose change); seeds 27000+
@@ -462,6 +485,8 @@ def make(work, name, kind, seed, opt, fmt, reuse=False):
     case = blindgen.make_case(kind, seed, opt2.get('size', 'full'), sensor, opt2.get('cls'), opt2.get('effect'),
                               opt2.get('g2_squares', False), opt2.get('ooc'), opt2.get('timing'),
                               opt2.get('full_catalog', False))
+    if opt2.get('row_loss'):
+        case['scenario']['row_loss'] = opt2['row_loss']
     truth, _ = blindgen.write_case(case, d, fmt, name)
     truth['case_hash'] = h
     with open(tp, 'w') as f:
@@ -787,7 +812,7 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--imuforge', required=True)
     ap.add_argument('--work', required=True, help='folder for cases and outputs (a case folder is named after the case and reused while its content hash matches: suites sharing case names need folders of their own when run at once)')
-    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'varied23', 'varied24', 'varied25', 'varied26', 'varied27', 'unseen', 'unseen2', 'unseen3', 'unseen4', 'unseen5', 'unseen6', 'varied28', 'unseen7', 'varied29', 'varied30', 'unseen8', 'varied31', 'unseen9', 'varied32', 'unseen10', 'varied33', 'unseen11', 'varied34', 'unseen12', 'varied35', 'unseen13', 'varied36', 'unseen14', 'varied37', 'unseen15', 'varied38', 'unseen16', 'varied39', 'unseen17', 'varied40'])
+    ap.add_argument('--suite', default='smoke', choices=['smoke', 'full', 'holdout', 'varied', 'varied2', 'varied3', 'varied4', 'varied5', 'varied6', 'varied7', 'varied8', 'varied9', 'varied10', 'varied11', 'varied12', 'varied13', 'varied14', 'varied15', 'varied16', 'varied17', 'varied18', 'varied19', 'varied20', 'varied21', 'varied22', 'varied23', 'varied24', 'varied25', 'varied26', 'varied27', 'unseen', 'unseen2', 'unseen3', 'unseen4', 'unseen5', 'unseen6', 'varied28', 'unseen7', 'varied29', 'varied30', 'unseen8', 'varied31', 'unseen9', 'varied32', 'unseen10', 'varied33', 'unseen11', 'varied34', 'unseen12', 'varied35', 'unseen13', 'varied36', 'unseen14', 'varied37', 'unseen15', 'varied38', 'unseen16', 'varied39', 'unseen17', 'varied40', 'unseen18', 'lossy18', 'lossless18'])
     ap.add_argument('--source', default='blindgen', choices=['blindgen', 'simulate'])
     ap.add_argument('--model', default=os.path.join(REPO, 'docs', 'examples', 'model-thermal.json'))
     ap.add_argument('--format', default='csv', choices=['csv', 'bin'], help='log encoding blindgen writes')

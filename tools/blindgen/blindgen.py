@@ -515,7 +515,7 @@ def zero_burst_mask(o, t):
     return mask
 
 
-def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
+def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot, wd_imu=None):
     kind = o['kind']
     if kind == 'heading':        # bias following the table heading (outer angle): motor / table field
         return o['amplitude'] * np.cos(ang[:, 2] - o.get('phase_rad', 0.0))
@@ -724,6 +724,18 @@ def ooc_signal(o, t, ang, w_imu, f_imu, T, Tdot):
         k = AX.index(o['input_axis'])  # frequency pulled by the centrifugal load of a rotation about k): w_j w_k^2,
         return o['coefficient'] * w_imu[:, j] * w_imu[:, k] ** 2  # zero on every single-axis rotation (the catalog's
         # k3 is w_j^3, its cross-coupling w_j w_k)
+    if kind == 'w_dot_cross':    # a gyro bias in the angular acceleration about ANOTHER axis k (the drive mass'
+        k = AX.index(o['input_axis'])  # inertia torqued by the table's angular acceleration: an 'angular
+        return o['coefficient'] * wd_imu[:, k]  # acceleration sensitivity'; the catalog's timing reads the axis' own
+        # acceleration only (latency: -tau wdot_j), its size_effect is the accelerometers'
+    if kind == 'temp_exp':       # a leakage current doubling every d degrees (Arrhenius): a bias 0 at the coldest
+        e = np.exp2((T - o['T_hi_C']) / o['double_C'])  # plateau and amp at the hottest, convex beyond any cubic in
+        e0 = 2.0 ** ((o['T_lo_C'] - o['T_hi_C']) / o['double_C'])  # T over 6-12 doublings
+        return o['amplitude'] * (e - e0) / (1.0 - e0)
+    if kind == 'w_cross_pair':   # accel bias in the product of the rates about its two CROSS axes (a proof mass'
+        k, l = [i for i in range(3) if i != j]  # product of inertia): w_k w_l. The catalog's size_effect on axis j
+        return o['coefficient'] * w_imu[:, k] * w_imu[:, l]  # has w_j w_k and w_k^2 + w_l^2 with one lever arm,
+        # never w_k w_l
     if kind == 'f_memory':       # accel bias set by the sign of the specific force along its axis at the last pose
         u = f_imu[:, j]          # that loaded it (> threshold): mechanical hysteresis of the proof mass' stops; it
         loaded = np.abs(u) > o.get('threshold_m_s2', 5.0)  # persists through poses that leave the axis level
@@ -884,7 +896,7 @@ def generate(case, out_dir, fmt='csv'):
                         acc_ += ((c0 & ~(1 << o['bit'])) - c0) * lsb_s
                     sig[:, jj] = acc_ / 8
                 else:
-                    sig[:, AX.index(o['axis'])] = ooc_signal(o, t, ang_s, w_i, f_i, die, Tdot)
+                    sig[:, AX.index(o['axis'])] = ooc_signal(o, t, ang_s, w_i, f_i, die, Tdot, wd_i)
                     ys += sig
                 if case.get('score_snr', True):
                     # what of the out-of-catalog term the base model cannot absorb: below DETECTABLE_SNR no
@@ -973,12 +985,35 @@ def generate(case, out_dir, fmt='csv'):
     segment_col = seg_idx.astype(np.int64)
     os.makedirs(out_dir, exist_ok=True)
     path = os.path.join(out_dir, 'log.' + ('bin' if fmt == 'bin' else 'csv'))
-    write_log(path, meta, t, segment_col, temp_C, chamber_C, f_ref, w_ref, counts['accel'], counts['gyro'], tbl, fmt)
+    keep = row_loss_keep(sim.get('row_loss'), seed, t)
+    if keep is not None:  # rows the logger never got (a USB or bus hiccup): gone from every column, stamps kept
+        k_ = keep
+        tbl_k = (tbl[0][k_], tbl[1][k_]) if tbl is not None else None
+        write_log(path, meta, t[k_], segment_col[k_], temp_C[k_], chamber_C[k_], f_ref[k_], w_ref[k_],
+                  counts['accel'][k_], counts['gyro'][k_], tbl_k, fmt)
+    else:
+        write_log(path, meta, t, segment_col, temp_C, chamber_C, f_ref, w_ref, counts['accel'], counts['gyro'], tbl, fmt)
+    n_lost = 0 if keep is None else int(n - np.count_nonzero(keep))
     segs = [{'id': i, 't0_s': s.t0, 't1_s': s.t0 + s.dur, 'kind': s.kind, 'label': s.label} for i, s in enumerate(scn.segments)]
-    return {'rows': n, 'duration_s': scn.duration, 'realised': realised, 'log': path, 'snr': snr,
+    return {'rows': n - n_lost, 'rows_lost': n_lost, 'duration_s': scn.duration, 'realised': realised, 'log': path, 'snr': snr,
             'lever_arm_m': scn.r.tolist(), 'mount_error_rad': scn.mount_err.tolist(), 'gravity_mps2': scn.g,
             'segments': segs, 'T_die_range_C': [float(die.min()), float(die.max())],
             '_arrays': {'t': t, 'seg': segment_col, 'die': die, 'Tdot': Tdot, 'd': d, 'f': f_ref, 'w': w_ref, 'ang': ang}}
+
+
+def row_loss_keep(spec, seed, t):
+    """The rows a lossy link delivers: spec {'interval_s': mean time between losses, 'max_rows': longest loss}.
+    Losses of 1 to max_rows rows (log-uniform: most short, a few long) at Poisson times; None keeps every row."""
+    if not spec:
+        return None
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 31]))
+    n = len(t)
+    k = int(rng.poisson(t[-1] / float(spec['interval_s'])))
+    keep = np.ones(n, dtype=bool)
+    lens = np.exp(rng.uniform(0.0, math.log(float(spec['max_rows'])), k)).astype(int) + 1
+    for i0, ln in zip(rng.integers(1, n - 1, k), lens):
+        keep[i0:min(i0 + ln, n - 1)] = False  # the first and last rows stay: the run's span is known
+    return keep
 
 
 def write_log(path, meta, t, seg, temp, chamber, f, w, acc, gyr, tbl, fmt):
@@ -1255,10 +1290,14 @@ OOC_KINDS_UNSEEN16 = ['mag_field', 'cross_abs_rate', 'temp_ripple']
 # a board lagging it by minutes, a second-order scale nonlinearity moving with the die temperature, a gyro bias in its
 # own rate times another axis' rate squared (zero on every single-axis rotation)
 OOC_KINDS_UNSEEN17 = ['thermal_gradient', 'k2_temp', 'w_cross_cubic']
+# written at stop 72 and first run on the stop-71 binary (suite 'unseen18'): a gyro bias in the angular acceleration
+# about another axis, a bias doubling every 6-14 degC (leakage), an accel bias in the product of its two cross axes'
+# rates
+OOC_KINDS_UNSEEN18 = ['w_dot_cross', 'temp_exp', 'w_cross_pair']
 # kinds that sit on one sensor only (their axis is drawn among that sensor's)
 OOC_GYRO_ONLY = ('w_cubed', 'g_cubed', 'rate_memory', 'cross_w2', 'g_temp', 'w_times_f', 'sign_rate', 'spin_settle', 'abs_g',
-                 'range_switch', 'dead_zone', 'mag_field', 'cross_abs_rate', 'w_cross_cubic')
-OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple', 'knee', 'mount_flex')
+                 'range_switch', 'dead_zone', 'mag_field', 'cross_abs_rate', 'w_cross_cubic', 'w_dot_cross')
+OOC_ACCEL_ONLY = ('abs_rate', 'rate_odd', 'creep', 'f_memory', 'f_times_w', 'f_triple', 'knee', 'mount_flex', 'w_cross_pair')
 
 
 def ooc_params(ooc_kind, amp, rng, scenario):
@@ -1405,6 +1444,13 @@ def ooc_params(ooc_kind, amp, rng, scenario):
                     T_mid_C=0.5 * (lo + hi), half_span_C=max(0.5 * (hi - lo), 1.0))
     if ooc_kind == 'w_cross_cubic':  # amp on the body diagonal at the top rate (each component top / sqrt 3)
         return dict(coefficient=amp / (math.radians(max(scenario['rates_dps'])) / math.sqrt(3.0)) ** 3, input_axis=None)
+    if ooc_kind == 'w_dot_cross':  # amp at the sines' largest angular acceleration (3.4 rad/s^2)
+        return dict(coefficient=amp / 3.4, input_axis=None)
+    if ooc_kind == 'temp_exp':  # doubling every 6-14 degC between the coldest and hottest plateaus
+        lo, hi = min(scenario['plateaus_C']), max(scenario['plateaus_C'])
+        return dict(amplitude=amp, T_lo_C=float(lo), T_hi_C=float(max(hi, lo + 1.0)), double_C=float(rng.uniform(6, 14)))
+    if ooc_kind == 'w_cross_pair':  # amp at the top rate about the diagonal between the two cross axes
+        return dict(coefficient=amp / (0.5 * math.radians(max(scenario['rates_dps'])) ** 2))
     if ooc_kind == 'mount_flex':  # amp at the top rate and 1 g along the input axis
         return dict(coefficient=amp / (9.80665 * math.radians(max(scenario['rates_dps'])) ** 2), input_axis=None)
     raise ValueError('unknown out-of-catalog kind %r' % ooc_kind)
@@ -1440,6 +1486,8 @@ def ooc_fill_axis(o, rng):
         top = o.pop('_top_rate')
         o['coefficient'] = o.pop('amplitude') / (9.80665 if o['sensor'] == 'accel' else top) ** 2
     if o['kind'] == 'w_cross_cubic':
+        o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
+    if o['kind'] == 'w_dot_cross':
         o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
     if o['kind'] == 'mount_flex':
         o['input_axis'] = str(rng.choice([k for k in AX if k != o['axis']]))
@@ -1535,6 +1583,8 @@ def make_case(kind, seed, size='full', sensor_path=None, cls=None, effect=None, 
         pass
     elif kind != 'example':
         raise ValueError('unknown kind ' + kind)
+    if any(o['kind'] == 'w_dot_cross' for o in ooc):
+        scenario['sines'] = True  # the only segments with angular acceleration (rate dwells start at their rate)
     case = {'seed': seed, 'scenario': scenario, 'sensor': sensor, 'ooc': ooc, 'noise_extra': noise_extra, 'truth': truth}
     if kind == 'single' and target_snr:
         case['target_snr'] = target_snr
@@ -1590,6 +1640,7 @@ def write_case(case, out_dir, fmt='csv', name=None):
         'stochastic': {'%s.%s' % (s, e): c for s, ee in sensor_effects(case['sensor']).items() for e, c in ee.items() if e in STOCHASTIC},
         'realised': info['realised'], 'lever_arm_m': info['lever_arm_m'], 'mount_error_rad': info['mount_error_rad'],
         'gravity_mps2': info['gravity_mps2'], 'rows': info['rows'], 'duration_s': info['duration_s'],
+        'rows_lost': info['rows_lost'],
         'T_die_range_C': info['T_die_range_C'], 'scenario': case['scenario'], 'segments': len(info['segments']),
         'snr': info['snr'],
     }
